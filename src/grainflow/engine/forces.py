@@ -1,0 +1,163 @@
+"""Force operations: the things a :class:`~grainflow.engine.simulation.Simulation` asks for
+forces each step.
+
+Every operation implements ``compute(sim, update)``, adding into ``state.force`` and
+``state.torque``; ``update`` is False during set-up evaluations, when contact histories must
+not advance (as in LAMMPS's set-up force call). Operations that remember something between
+steps implement ``state_dict()`` / ``load_state_dict()`` so checkpoints can hold it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numba import njit, prange
+
+from grainflow.kernels import neighbors as nk
+from grainflow.kernels.pair_loop import active_pairs, evaluate_pairs, gather_pair_forces
+from grainflow.models.base import ContactLaw
+
+if TYPE_CHECKING:
+    from grainflow.engine.simulation import Simulation
+
+
+class Force:
+    """Base class of force operations."""
+
+    def compute(self, sim: "Simulation", update: bool) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def state_dict(self) -> dict[str, Any]:
+        return {}
+
+    def load_state_dict(self, data: dict[str, Any]) -> None:
+        pass
+
+    def nbytes(self) -> int:
+        return 0
+
+
+class PairForce(Force):
+    """Particle-particle contacts with one :class:`ContactLaw` and its pair history.
+
+    The history array is aligned with the simulation's neighbour list; when the list is
+    rebuilt, :meth:`attach` carries each pair's history over, and when particles are
+    re-indexed, :meth:`reindex` re-expresses it in the new indices.
+    """
+
+    def __init__(self, law: ContactLaw) -> None:
+        self.law = law
+        h = law.history_size
+        self._ptr = np.zeros(1, dtype=np.int64)
+        self._nbr = np.zeros(0, dtype=np.int64)
+        self.history = np.zeros((0, h))
+        self.f_pair = np.zeros((0, 3))
+        self.c_pair = np.zeros((0, 3))
+
+    def reindex(self, old_to_new: np.ndarray) -> None:
+        """Follow a permutation/deletion of particles (``old_to_new[i] = -1`` drops i)."""
+        self._ptr, self._nbr, self.history = nk.reindex_pairs(
+            self._ptr, self._nbr, self.history, old_to_new, self.law.flip)
+
+    def attach(self, row_ptr: np.ndarray, nbr: np.ndarray) -> None:
+        """Adopt a freshly built list, carrying over the history of surviving pairs."""
+        new_hist = np.empty((nbr.shape[0], self.law.history_size))
+        nk.carry_history(self._ptr, self._nbr, self.history, row_ptr, nbr, new_hist)
+        self._ptr, self._nbr, self.history = row_ptr, nbr, new_hist
+        self.f_pair = np.zeros((nbr.shape[0], 3))
+        self.c_pair = np.zeros((nbr.shape[0], 3))
+
+    def compute(self, sim: "Simulation", update: bool) -> None:
+        st = sim.state
+        nl = sim.neighbors
+        g = sim.geometry
+        evaluate_pairs(self.law.evaluator, self.law.table, st.x, st.v, st.omega, st.radius,
+                       st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr, self.history,
+                       self.f_pair, self.c_pair, g.length, g.periodic, sim.dt, update)
+        gather_pair_forces(nl.row_ptr, nl.col_ptr, nl.col_pair, self.f_pair, self.c_pair,
+                           st.radius, st.force, st.torque)
+
+    def contacts(self, sim: "Simulation") -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                     np.ndarray]:
+        """Interacting pairs now: indices i, j, force on i (M, 3), branch x_i - x_j (M, 3)."""
+        nl = sim.neighbors
+        pi, pj, slot = active_pairs(nl.row_ptr, nl.nbr, self.f_pair)
+        x = sim.state.x
+        g = sim.geometry
+        branch = x[pi] - x[pj]
+        for a in np.nonzero(g.periodic)[0]:
+            branch[:, a] -= g.length[a] * np.rint(branch[:, a] / g.length[a])
+        return pi, pj, self.f_pair[slot].copy(), branch
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"ptr": self._ptr.copy(), "nbr": self._nbr.copy(), "history": self.history.copy()}
+
+    def load_state_dict(self, data: dict[str, Any]) -> None:
+        self._ptr = np.asarray(data["ptr"], dtype=np.int64)
+        self._nbr = np.asarray(data["nbr"], dtype=np.int64)
+        self.history = np.asarray(data["history"], dtype=np.float64).reshape(
+            -1, self.law.history_size)
+
+    def nbytes(self) -> int:
+        return int(self.history.nbytes + self.f_pair.nbytes + self.c_pair.nbytes)
+
+
+@njit(cache=True, parallel=True)
+def _add_body_force(force, mass, frozen, g0, g1, g2):
+    for i in prange(force.shape[0]):
+        if not frozen[i]:
+            m = mass[i]
+            force[i, 0] += m * g0
+            force[i, 1] += m * g1
+            force[i, 2] += m * g2
+
+
+class Gravity(Force):
+    """Uniform gravitational acceleration ``g`` (dim components): ``F_i = m_i g``."""
+
+    def __init__(self, g) -> None:
+        g = np.asarray(g, dtype=float).ravel()
+        if g.size not in (2, 3) or not np.all(np.isfinite(g)):
+            raise ValueError("gravity: give 2 (2D) or 3 (3D) finite components")
+        self.g = np.zeros(3)
+        self.g[: g.size] = g
+
+    @classmethod
+    def chute(cls, magnitude: float, angle_deg: float) -> "Gravity":
+        """LAMMPS ``fix gravity ... chute angle``: tilted by ``angle`` towards +x."""
+        theta = np.radians(180.0 - angle_deg)
+        return cls([magnitude * np.sin(theta), 0.0, magnitude * np.cos(theta)])
+
+    def compute(self, sim: "Simulation", update: bool) -> None:
+        st = sim.state
+        _add_body_force(st.force, st.mass, st.frozen, self.g[0], self.g[1], self.g[2])
+
+
+@njit(cache=True, parallel=True)
+def _add_drag(force, v, zeta_of_type, ptype, frozen):
+    for i in prange(force.shape[0]):
+        if not frozen[i]:
+            z = zeta_of_type[ptype[i]]
+            force[i, 0] -= z * v[i, 0]
+            force[i, 1] -= z * v[i, 1]
+            force[i, 2] -= z * v[i, 2]
+
+
+class Drag(Force):
+    """Viscous drag of a background fluid, ``F_i = -zeta v_i`` (seed 003 eq. 5/11, M3).
+
+    ``zeta`` is a scalar or one value per particle type.
+    """
+
+    def __init__(self, zeta: float | np.ndarray) -> None:
+        z = np.atleast_1d(np.asarray(zeta, dtype=float))
+        if np.any(z < 0) or not np.all(np.isfinite(z)):
+            raise ValueError("drag.zeta: must be a non-negative number (per type)")
+        self.zeta = z
+
+    def compute(self, sim: "Simulation", update: bool) -> None:
+        st = sim.state
+        ntypes = int(st.type.max()) + 1 if st.n else 1
+        z = self.zeta if self.zeta.size >= ntypes else np.full(ntypes, self.zeta[0])
+        _add_drag(st.force, st.v, z, st.type, st.frozen)

@@ -1,0 +1,153 @@
+"""Verlet-list orchestration: when to rebuild, periodic wrapping, spatial re-sorting.
+
+The list holds every pair whose centre distance is below ``r_i + r_j + reach + skin``
+(``reach``: how far beyond contact the pair law acts, e.g. the cohesion shell). It is rebuilt
+when some particle has moved more than ``skin / 2`` since the last build, which guarantees
+that no interacting pair is missed in between. Every ``sort_every`` builds the particles are
+re-ordered along the cell keys (neighbours in space become neighbours in memory); the
+contact history follows through :meth:`PairForce.reindex`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from grainflow.kernels import neighbors as nk
+from grainflow.state import ParticleState
+
+
+@dataclass
+class ListGeometry:
+    """Box data in the 3-component form the kernels take."""
+
+    lo: np.ndarray
+    length: np.ndarray
+    periodic: np.ndarray
+
+    @classmethod
+    def from_state(cls, state: ParticleState) -> "ListGeometry":
+        d = state.dim
+        lo = np.zeros(3)
+        length = np.ones(3)
+        periodic = np.zeros(3, dtype=np.bool_)
+        lo[:d] = state.box.lo
+        length[:d] = state.box.lengths
+        periodic[:d] = state.box.periodic
+        return cls(lo, length, periodic)
+
+
+class NeighborList:
+    """Half Verlet list built from sparse (hashed) cells.
+
+    Attributes after :meth:`build`: ``row_ptr`` (N+1,), ``nbr`` (P,), ``col_ptr`` (N+1,),
+    ``col_pair`` (P,), ``builds`` (count).
+    """
+
+    def __init__(self, skin: float, sort_every: int = 10) -> None:
+        if skin <= 0:
+            raise ValueError("skin: must be positive (a fraction of the diameter, e.g. 0.1 d)")
+        self.skin = float(skin)
+        self.sort_every = int(sort_every)
+        self.builds = 0
+        self.row_ptr = np.zeros(1, dtype=np.int64)
+        self.nbr = np.zeros(0, dtype=np.int64)
+        self.col_ptr = np.zeros(1, dtype=np.int64)
+        self.col_pair = np.zeros(0, dtype=np.int64)
+        self._x_ref = np.zeros((0, 3))
+        self._generation = -1
+
+    def needs_build(self, state: ParticleState, geom: ListGeometry) -> bool:
+        """True if indices changed or some particle moved more than skin/2."""
+        if state.generation != self._generation or self._x_ref.shape[0] != state.n:
+            return True
+        d2 = nk.max_displacement_sq(state.x, self._x_ref, geom.length, geom.periodic)
+        return d2 > 0.25 * self.skin * self.skin
+
+    def wrap(self, state: ParticleState, geom: ListGeometry) -> None:
+        """Fold positions on periodic axes back into the box; count the image shifts."""
+        for a in np.nonzero(geom.periodic)[0]:
+            shift = np.floor((state.x[:, a] - geom.lo[a]) / geom.length[a])
+            if np.any(shift != 0):
+                state.x[:, a] -= shift * geom.length[a]
+                state.image[:, a] += shift.astype(np.int64)
+
+    def cell_order(self, state: ParticleState, geom: ListGeometry, reach: float):
+        """Cell coordinates, linear keys and the key-sorted particle order."""
+        rmax = float(state.radius.max()) if state.n else 0.0
+        margin = reach + self.skin
+        cut = 2.0 * rmax + margin
+        cell = np.full(3, cut)
+        ncell = np.ones(3, dtype=np.int64)
+        for a in range(state.dim):
+            if geom.periodic[a]:
+                if geom.length[a] < 2.0 * cut:
+                    raise ValueError(
+                        f"box: periodic length {geom.length[a]:g} along axis {a} is shorter than "
+                        f"twice the interaction cut-off {cut:g}; enlarge the box")
+                ncell[a] = int(geom.length[a] // cut)
+                cell[a] = geom.length[a] / ncell[a]
+        coords = nk.cell_coordinates(state.x, geom.lo, cell, ncell, geom.periodic)
+        if state.n:
+            cmin = coords.min(axis=0)
+            extent = coords.max(axis=0) - cmin + 1
+        else:
+            cmin = np.zeros(3, dtype=np.int64)
+            extent = np.ones(3, dtype=np.int64)
+        for a in range(3):
+            if geom.periodic[a]:
+                cmin[a] = 0
+                extent[a] = ncell[a]
+        if float(extent[0]) * float(extent[1]) * float(extent[2]) > 2.0**62:
+            raise ValueError("neighbour cells: particles spread over too many cells; some "
+                             "particle has probably flown away (check the time step)")
+        keys = nk.linear_keys(coords, cmin, extent)
+        order = np.argsort(keys, kind="stable")
+        offsets = self._offsets(state.dim, geom.periodic, ncell)
+        return coords, keys, order, cmin, extent, ncell, offsets, margin
+
+    @staticmethod
+    def _offsets(dim: int, periodic: np.ndarray, ncell: np.ndarray) -> np.ndarray:
+        per_axis = []
+        for a in range(3):
+            if a >= dim:
+                per_axis.append([0])
+            elif periodic[a] and ncell[a] < 3:
+                per_axis.append(list(range(int(ncell[a]))))
+            else:
+                per_axis.append([-1, 0, 1])
+        grid = np.array(np.meshgrid(*per_axis, indexing="ij")).reshape(3, -1).T
+        return np.ascontiguousarray(grid, dtype=np.int64)
+
+    def build(self, state: ParticleState, geom: ListGeometry, cells) -> None:
+        """Build the half list and its transpose from :meth:`cell_order`'s result."""
+        coords, keys, order, cmin, extent, ncell, offsets, margin = cells
+        sorted_keys = keys[order]
+        if state.n:
+            starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
+            cell_keys = np.ascontiguousarray(sorted_keys[starts])
+            cell_start = np.r_[starts, state.n].astype(np.int64)
+        else:
+            cell_keys = np.zeros(0, dtype=np.int64)
+            cell_start = np.zeros(1, dtype=np.int64)
+        self.row_ptr, self.nbr = nk.build_half_list(
+            state.x, state.radius, state.frozen, state.body, coords, cell_keys, cell_start,
+            order.astype(np.int64), offsets, cmin, extent, geom.periodic, ncell, geom.length,
+            margin)
+        self.col_ptr, self.col_pair = nk.transpose_index(self.row_ptr, self.nbr, state.n)
+        self._x_ref = state.x.copy()
+        self._generation = state.generation
+        self.builds += 1
+
+    def sort_due(self) -> bool:
+        return self.sort_every > 0 and self.builds % self.sort_every == 0
+
+    @property
+    def n_pairs(self) -> int:
+        return int(self.nbr.shape[0])
+
+    def nbytes(self) -> int:
+        """Memory held by the list and its transpose."""
+        return int(self.row_ptr.nbytes + self.nbr.nbytes + self.col_ptr.nbytes
+                   + self.col_pair.nbytes + self._x_ref.nbytes)

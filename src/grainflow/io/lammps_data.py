@@ -1,0 +1,104 @@
+"""Reader for LAMMPS data files with ``atom_style sphere``.
+
+Atoms line: ``id type diameter density x y z [ix iy iz]``; Velocities line:
+``id vx vy vz wx wy wz``. Mass is ``density * pi d^3 / 6`` (3D), as LAMMPS computes it
+(a diameter of 0 would be a point particle and is refused). Only orthogonal boxes are read.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from grainflow.frame import Box
+from grainflow.state import ParticleState
+
+
+@dataclass
+class LammpsData:
+    """Contents of a data file, sorted by atom id."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    id: np.ndarray
+    type: np.ndarray
+    diameter: np.ndarray
+    density: np.ndarray
+    x: np.ndarray
+    image: np.ndarray
+    v: np.ndarray
+    omega: np.ndarray
+
+
+def read_lammps_data(path: str | Path) -> LammpsData:
+    """Parse a LAMMPS ``atom_style sphere`` data file."""
+    path = Path(path)
+    lines = path.read_text().splitlines()
+    lo = np.zeros(3)
+    hi = np.zeros(3)
+    natoms = None
+    sections: dict[str, list[str]] = {}
+    current = None
+    for raw in lines[1:]:
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        words = line.split()
+        if current is None or words[0] in ("Atoms", "Velocities", "Masses", "Bonds"):
+            if line.endswith("atoms") and len(words) == 2:
+                natoms = int(words[0])
+                continue
+            for a, tag in enumerate(("xlo xhi", "ylo yhi", "zlo zhi")):
+                if line.endswith(tag):
+                    lo[a], hi[a] = float(words[0]), float(words[1])
+            if words[0] in ("Atoms", "Velocities", "Masses", "Bonds"):
+                current = words[0]
+                sections[current] = []
+                if current == "Atoms" and len(words) > 1 and words[1] != "sphere":
+                    raise ValueError(f"{path}: Atoms section is '{words[1]}', expected sphere")
+            continue
+        if words[0][0].isalpha():
+            current = words[0]
+            sections[current] = []
+            continue
+        sections[current].append(line)
+    if natoms is None or "Atoms" not in sections:
+        raise ValueError(f"{path}: not a LAMMPS data file (no atom count or Atoms section)")
+    atoms = np.array([row.split() for row in sections["Atoms"]], dtype=float)
+    if atoms.shape[0] != natoms:
+        raise ValueError(f"{path}: header says {natoms} atoms, Atoms section has "
+                         f"{atoms.shape[0]}")
+    if atoms.shape[1] not in (7, 10):
+        raise ValueError(f"{path}: Atoms lines have {atoms.shape[1]} columns; atom_style "
+                         "sphere needs 7 (id type diameter density x y z) or 10 (+ images)")
+    order = np.argsort(atoms[:, 0])
+    atoms = atoms[order]
+    image = atoms[:, 7:10].astype(np.int64) if atoms.shape[1] == 10 else np.zeros((natoms, 3),
+                                                                               dtype=np.int64)
+    v = np.zeros((natoms, 3))
+    omega = np.zeros((natoms, 3))
+    if "Velocities" in sections:
+        vel = np.array([row.split() for row in sections["Velocities"]], dtype=float)
+        index = {int(a): k for k, a in enumerate(atoms[:, 0])}
+        rows = np.array([index[int(a)] for a in vel[:, 0]])
+        v[rows] = vel[:, 1:4]
+        omega[rows] = vel[:, 4:7]
+    diameter = atoms[:, 2]
+    if np.any(diameter <= 0):
+        raise ValueError(f"{path}: point particles (diameter 0) are not supported")
+    return LammpsData(lo=lo, hi=hi, id=atoms[:, 0].astype(np.int64),
+                      type=atoms[:, 1].astype(np.int32), diameter=diameter, density=atoms[:, 3],
+                      x=atoms[:, 4:7], image=image, v=v, omega=omega)
+
+
+def state_from_lammps_data(data: LammpsData, periodic: tuple[bool, bool, bool],
+                           type_offset: int = 1) -> ParticleState:
+    """Build a 3D :class:`ParticleState`; LAMMPS types 1.. become 0.. (``type_offset``)."""
+    box = Box(lo=data.lo.copy(), hi=data.hi.copy(), periodic=tuple(periodic))
+    st = ParticleState(3, box)
+    st.add_particles(data.x, 0.5 * data.diameter, density=data.density, v=data.v,
+                     omega=data.omega, type=data.type - type_offset, ids=data.id)
+    st.image[:] = data.image
+    return st

@@ -1,0 +1,264 @@
+"""Compiled kernels for the neighbour search: sparse cell lists into a half Verlet list.
+
+Cells are hashed, not stored densely: each particle gets integer cell coordinates, the
+coordinates are linearised into one int64 key, particles are sorted by key and only occupied
+cells exist (a sorted array of unique keys). A neighbour cell is found by binary search in
+that array, so memory and time grow with the number of particles, never with the empty
+volume of the domain (a falling stream 1000 diameters tall costs what its grains cost).
+
+The Verlet list is a *half* list in CSR form: row ``i`` holds the partners ``j > i`` with
+centre distance below ``radius_i + radius_j + reach + skin``, sorted ascending. Pairs of two
+frozen particles and pairs inside one body (``body >= 0``) are excluded. The transpose
+(``col_ptr``, ``col_pair``) lists for each particle the pair slots where it is the second
+member, so per-pair forces can be gathered per particle in a fixed order: results are then
+bitwise independent of the number of threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+
+@njit(cache=True)
+def minimum_image(d: float, length: float, periodic: bool) -> float:
+    """Displacement component folded into [-L/2, L/2] on a periodic axis."""
+    if periodic:
+        return d - length * np.rint(d / length)
+    return d
+
+
+@njit(cache=True, parallel=True)
+def cell_coordinates(x, lo, cell_size, ncell, periodic):
+    """Integer cell coordinates (N, 3); periodic axes are folded into [0, ncell)."""
+    n = x.shape[0]
+    c = np.empty((n, 3), dtype=np.int64)
+    for i in prange(n):
+        for a in range(3):
+            ca = np.int64(np.floor((x[i, a] - lo[a]) / cell_size[a]))
+            if periodic[a]:
+                ca = ca % ncell[a]
+            c[i, a] = ca
+    return c
+
+
+@njit(cache=True, parallel=True)
+def linear_keys(c, cmin, extent):
+    """Linearise cell coordinates into int64 keys (row-major over x, y, z)."""
+    n = c.shape[0]
+    keys = np.empty(n, dtype=np.int64)
+    for i in prange(n):
+        keys[i] = ((c[i, 0] - cmin[0]) * extent[1] + (c[i, 1] - cmin[1])) * extent[2] + (
+            c[i, 2] - cmin[2])
+    return keys
+
+
+@njit(cache=True)
+def _neighbor_cell_key(ci, d, cmin, extent, periodic, ncell):
+    """Key of the cell at offset ``d`` from cell coordinates ``ci``; -1 if outside."""
+    key = np.int64(0)
+    for a in range(3):
+        ca = ci[a] + d[a]
+        if periodic[a]:
+            ca = ca % ncell[a]
+        ca -= cmin[a]
+        if ca < 0 or ca >= extent[a]:
+            return np.int64(-1)
+        key = key * extent[a] + ca
+    return key
+
+
+@njit(cache=True)
+def _find(sorted_keys, key):
+    """Index of ``key`` in ``sorted_keys`` or -1."""
+    k = np.searchsorted(sorted_keys, key)
+    if k < sorted_keys.shape[0] and sorted_keys[k] == key:
+        return k
+    return -1
+
+
+@njit(cache=True)
+def _pair_excluded(i, j, frozen, body):
+    if frozen[i] and frozen[j]:
+        return True
+    return body[i] >= 0 and body[i] == body[j]
+
+
+@njit(cache=True)
+def _scan(i, x, radius, frozen, body, coords, cell_keys, cell_start, order, offsets,
+          cmin, extent, periodic, ncell, box_len, margin, out, write):
+    """Count (and, if ``write``, store into ``out``) the partners j > i of particle i."""
+    count = 0
+    ci = coords[i]
+    d = np.empty(3, dtype=np.int64)
+    for o in range(offsets.shape[0]):
+        d[0] = offsets[o, 0]
+        d[1] = offsets[o, 1]
+        d[2] = offsets[o, 2]
+        key = _neighbor_cell_key(ci, d, cmin, extent, periodic, ncell)
+        if key < 0:
+            continue
+        c = _find(cell_keys, key)
+        if c < 0:
+            continue
+        for s in range(cell_start[c], cell_start[c + 1]):
+            j = order[s]
+            if j <= i or _pair_excluded(i, j, frozen, body):
+                continue
+            rsq = 0.0
+            for a in range(3):
+                da = minimum_image(x[i, a] - x[j, a], box_len[a], periodic[a])
+                rsq += da * da
+            cut = radius[i] + radius[j] + margin
+            if rsq < cut * cut:
+                if write:
+                    out[count] = j
+                count += 1
+    return count
+
+
+@njit(cache=True, parallel=True)
+def build_half_list(x, radius, frozen, body, coords, cell_keys, cell_start, order, offsets,
+                    cmin, extent, periodic, ncell, box_len, margin):
+    """Half Verlet list (row_ptr, nbr) with rows sorted ascending.
+
+    ``margin`` = interaction reach beyond contact + skin.
+    """
+    n = x.shape[0]
+    counts = np.zeros(n + 1, dtype=np.int64)
+    dummy = np.empty(0, dtype=np.int64)
+    for i in prange(n):
+        counts[i + 1] = _scan(i, x, radius, frozen, body, coords, cell_keys, cell_start, order,
+                              offsets, cmin, extent, periodic, ncell, box_len, margin, dummy,
+                              False)
+    row_ptr = np.cumsum(counts)
+    nbr = np.empty(row_ptr[n], dtype=np.int64)
+    for i in prange(n):
+        row = nbr[row_ptr[i]:row_ptr[i + 1]]
+        _scan(i, x, radius, frozen, body, coords, cell_keys, cell_start, order, offsets, cmin,
+              extent, periodic, ncell, box_len, margin, row, True)
+        row.sort()
+    return row_ptr, nbr
+
+
+@njit(cache=True)
+def transpose_index(row_ptr, nbr, n):
+    """For each particle, the pair slots where it is the second member (counting sort)."""
+    col_ptr = np.zeros(n + 1, dtype=np.int64)
+    for k in range(nbr.shape[0]):
+        col_ptr[nbr[k] + 1] += 1
+    for i in range(n):
+        col_ptr[i + 1] += col_ptr[i]
+    fill = col_ptr[:-1].copy()
+    col_pair = np.empty(nbr.shape[0], dtype=np.int64)
+    for i in range(n):
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            j = nbr[k]
+            col_pair[fill[j]] = k
+            fill[j] += 1
+    return col_ptr, col_pair
+
+
+@njit(cache=True, parallel=True)
+def carry_history(old_ptr, old_nbr, old_hist, new_ptr, new_nbr, new_hist):
+    """Copy per-pair history from an old list to a new one, matching (i, j) by merge.
+
+    Both lists are in the same particle indexing with rows sorted ascending. Pairs absent
+    from the old list start with zero history.
+    """
+    n = new_ptr.shape[0] - 1
+    width = new_hist.shape[1]
+    for i in prange(n):
+        a = old_ptr[i] if i < old_ptr.shape[0] - 1 else 0
+        a_end = old_ptr[i + 1] if i < old_ptr.shape[0] - 1 else 0
+        for k in range(new_ptr[i], new_ptr[i + 1]):
+            j = new_nbr[k]
+            while a < a_end and old_nbr[a] < j:
+                a += 1
+            if a < a_end and old_nbr[a] == j:
+                for h in range(width):
+                    new_hist[k, h] = old_hist[a, h]
+            else:
+                for h in range(width):
+                    new_hist[k, h] = 0.0
+
+
+@njit(cache=True)
+def reindex_pairs(row_ptr, nbr, hist, old_to_new, flip):
+    """Re-express stored pairs after particles were permuted or deleted.
+
+    Returns a list (row_ptr, nbr, hist) in the new indexing with rows sorted ascending and
+    i < j; history components with ``flip = -1`` change sign when i and j swap roles (vector
+    quantities defined along the branch vector x_i - x_j). Only pairs with some non-zero
+    history are kept: the rest carries no information.
+    """
+    n_old = row_ptr.shape[0] - 1
+    width = hist.shape[1]
+    n_new = 0
+    for i in range(old_to_new.shape[0]):
+        if old_to_new[i] + 1 > n_new:
+            n_new = old_to_new[i] + 1
+    m = 0
+    for i in range(n_old):
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            if old_to_new[i] < 0 or old_to_new[nbr[k]] < 0:
+                continue
+            for h in range(width):
+                if hist[k, h] != 0.0:
+                    m += 1
+                    break
+    pi = np.empty(m, dtype=np.int64)
+    pj = np.empty(m, dtype=np.int64)
+    ph = np.empty((m, width))
+    m = 0
+    for i in range(n_old):
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            a = old_to_new[i]
+            b = old_to_new[nbr[k]]
+            if a < 0 or b < 0:
+                continue
+            nonzero = False
+            for h in range(width):
+                if hist[k, h] != 0.0:
+                    nonzero = True
+            if not nonzero:
+                continue
+            if a < b:
+                pi[m] = a
+                pj[m] = b
+                for h in range(width):
+                    ph[m, h] = hist[k, h]
+            else:
+                pi[m] = b
+                pj[m] = a
+                for h in range(width):
+                    ph[m, h] = flip[h] * hist[k, h]
+            m += 1
+    order = np.argsort(pi * (n_new + 1) + pj)
+    new_ptr = np.zeros(n_new + 1, dtype=np.int64)
+    for q in range(m):
+        new_ptr[pi[q] + 1] += 1
+    for i in range(n_new):
+        new_ptr[i + 1] += new_ptr[i]
+    new_nbr = np.empty(m, dtype=np.int64)
+    new_hist = np.empty((m, width))
+    for q in range(m):
+        s = order[q]
+        new_nbr[q] = pj[s]
+        for h in range(width):
+            new_hist[q, h] = ph[s, h]
+    return new_ptr, new_nbr, new_hist
+
+
+@njit(cache=True, parallel=True)
+def max_displacement_sq(x, x_ref, box_len, periodic):
+    """Largest squared displacement since the last list build (minimum image)."""
+    n = x.shape[0]
+    best = np.zeros(n)
+    for i in prange(n):
+        s = 0.0
+        for a in range(3):
+            d = minimum_image(x[i, a] - x_ref[i, a], box_len[a], periodic[a])
+            s += d * d
+        best[i] = s
+    return best.max() if n else 0.0

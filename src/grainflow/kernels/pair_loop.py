@@ -1,0 +1,141 @@
+"""The one pair loop every contact law runs through, and the deterministic force gather.
+
+A contact law is a compiled *evaluator* (see :mod:`grainflow.models.base`) with the
+signature::
+
+    evaluate(p, dx, dy, dz, rsq, rad_i, rad_j, vrx, vry, vrz,
+             wix, wiy, wiz, wjx, wjy, wjz, meff, hist, k, dt, update)
+        -> (fx, fy, fz, cx, cy, cz)
+
+``p`` is the law's parameter row for the type pair, ``d = x_i - x_j`` the branch vector
+(minimum image), ``vr = v_i - v_j``, ``w`` the angular velocities, ``meff`` the effective
+mass (``m_i m_j / (m_i + m_j)``, or the mobile partner's mass when the other is frozen or a
+wall), ``hist[k]`` the pair's history row. The evaluator returns the force on ``i`` and the
+vector ``c`` such that the torques are ``T_i -= rad_i c`` and ``T_j -= rad_j c`` (for a
+tangential force ``F_t``: ``c = d x F_t / |d|``, LAMMPS's convention with the full radius as
+lever arm). Walls call the same evaluator with ``rad_j = 0`` and ``d`` the vector from the
+wall's closest point, so one law serves pairs and walls alike.
+
+The loop writes per-pair results; :func:`gather_pair_forces` then sums them per particle in
+a fixed order, so forces are bitwise identical for any number of threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from grainflow.kernels.neighbors import minimum_image
+
+
+@njit(cache=True, parallel=True)
+def evaluate_pairs(evaluate, params, x, v, omega, radius, mass, ptype, frozen, row_ptr, nbr, hist,
+                   f_pair, c_pair, box_len, periodic, dt, update):
+    """Evaluate the law for every listed pair; write ``f_pair`` and ``c_pair`` (npairs, 3)."""
+    n = row_ptr.shape[0] - 1
+    for i in prange(n):
+        xi0 = x[i, 0]
+        xi1 = x[i, 1]
+        xi2 = x[i, 2]
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            j = nbr[k]
+            dx = minimum_image(xi0 - x[j, 0], box_len[0], periodic[0])
+            dy = minimum_image(xi1 - x[j, 1], box_len[1], periodic[1])
+            dz = minimum_image(xi2 - x[j, 2], box_len[2], periodic[2])
+            rsq = dx * dx + dy * dy + dz * dz
+            mi = mass[i]
+            mj = mass[j]
+            if frozen[i]:
+                meff = mj
+            elif frozen[j]:
+                meff = mi
+            else:
+                meff = mi * mj / (mi + mj)
+            fx, fy, fz, cx, cy, cz = evaluate(
+                params[ptype[i], ptype[j]], dx, dy, dz, rsq, radius[i], radius[j],
+                v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
+                omega[i, 0], omega[i, 1], omega[i, 2], omega[j, 0], omega[j, 1], omega[j, 2],
+                meff, hist, k, dt, update)
+            f_pair[k, 0] = fx
+            f_pair[k, 1] = fy
+            f_pair[k, 2] = fz
+            c_pair[k, 0] = cx
+            c_pair[k, 1] = cy
+            c_pair[k, 2] = cz
+
+
+@njit(cache=True, parallel=True)
+def gather_pair_forces(row_ptr, col_ptr, col_pair, f_pair, c_pair, radius, force, torque):
+    """Add per-pair forces and torques to the particles, in a fixed order (deterministic)."""
+    n = row_ptr.shape[0] - 1
+    for i in prange(n):
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+        c0 = 0.0
+        c1 = 0.0
+        c2 = 0.0
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            f0 += f_pair[k, 0]
+            f1 += f_pair[k, 1]
+            f2 += f_pair[k, 2]
+            c0 += c_pair[k, 0]
+            c1 += c_pair[k, 1]
+            c2 += c_pair[k, 2]
+        for q in range(col_ptr[i], col_ptr[i + 1]):
+            k = col_pair[q]
+            f0 -= f_pair[k, 0]
+            f1 -= f_pair[k, 1]
+            f2 -= f_pair[k, 2]
+            c0 += c_pair[k, 0]
+            c1 += c_pair[k, 1]
+            c2 += c_pair[k, 2]
+        force[i, 0] += f0
+        force[i, 1] += f1
+        force[i, 2] += f2
+        r = radius[i]
+        torque[i, 0] -= r * c0
+        torque[i, 1] -= r * c1
+        torque[i, 2] -= r * c2
+
+
+@njit(cache=True)
+def active_pairs(row_ptr, nbr, f_pair):
+    """Pair slots with a non-zero force, as (i, j, slot) arrays."""
+    n = row_ptr.shape[0] - 1
+    m = 0
+    for k in range(nbr.shape[0]):
+        if f_pair[k, 0] != 0.0 or f_pair[k, 1] != 0.0 or f_pair[k, 2] != 0.0:
+            m += 1
+    pi = np.empty(m, dtype=np.int64)
+    pj = np.empty(m, dtype=np.int64)
+    slot = np.empty(m, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            if f_pair[k, 0] != 0.0 or f_pair[k, 1] != 0.0 or f_pair[k, 2] != 0.0:
+                pi[m] = i
+                pj[m] = nbr[k]
+                slot[m] = k
+                m += 1
+    return pi, pj, slot
+
+
+@njit(cache=True, parallel=True)
+def max_pair_overlap(row_ptr, nbr, x, radius, box_len, periodic):
+    """Largest overlap ``r_i + r_j - |d|`` over listed pairs (0 if none overlap)."""
+    n = row_ptr.shape[0] - 1
+    best = np.zeros(n)
+    for i in prange(n):
+        b = 0.0
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            j = nbr[k]
+            rsq = 0.0
+            for a in range(3):
+                d = minimum_image(x[i, a] - x[j, a], box_len[a], periodic[a])
+                rsq += d * d
+            ov = radius[i] + radius[j] - np.sqrt(rsq)
+            if ov > b:
+                b = ov
+        best[i] = b
+    return best.max() if n else 0.0

@@ -1,0 +1,1 @@
+"""grainflow.models"""

@@ -1,0 +1,57 @@
+"""LAMMPS's granular chute benchmark (``bench/in.chute``) as a grainflow simulation.
+
+32,000 spheres of diameter 1 and density 1 on a frozen rough base (type 2), periodic in x and
+y, gravity of magnitude 1 tilted 26 degrees down-slope, ``pair_style gran/hooke/history
+200000.0 NULL 50.0 NULL 0.5 0`` (kn = 2e5, kt = 2/7 kn, gamma_n = 50, gamma_t = 0 because
+dampflag = 0, mu = 0.5), dt = 1e-4, skin 0.1. Replicas along x and y give larger systems at
+the same density for the scaling benchmark.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from grainflow.engine.forces import Gravity
+from grainflow.engine.simulation import Simulation
+from grainflow.frame import Box
+from grainflow.io.lammps_data import LammpsData, read_lammps_data
+from grainflow.models.granular import GranularLaw
+from grainflow.state import ParticleState
+
+#: The deck's parameters.
+CHUTE = {"kn": 2.0e5, "gamma_n": 50.0, "mu": 0.5, "dt": 1.0e-4, "skin": 0.1, "angle": 26.0}
+
+
+def chute_state(data: LammpsData, replicate: tuple[int, int] = (1, 1)) -> ParticleState:
+    """The chute particles, replicated ``replicate[0] x replicate[1]`` times in x and y."""
+    lx, ly = data.hi[:2] - data.lo[:2]
+    rx, ry = replicate
+    hi = data.hi.copy()
+    hi[0] = data.lo[0] + rx * lx
+    hi[1] = data.lo[1] + ry * ly
+    st = ParticleState(3, Box(lo=data.lo.copy(), hi=hi, periodic=(True, True, False)))
+    n = data.id.shape[0]
+    for a in range(rx):
+        for b in range(ry):
+            x = data.x + np.array([a * lx, b * ly, 0.0])
+            copy = a * ry + b
+            st.add_particles(x, 0.5 * data.diameter, density=data.density, v=data.v,
+                             omega=data.omega, type=data.type - 1, frozen=data.type == 2,
+                             ids=data.id + copy * n)
+    if rx == 1 and ry == 1:
+        st.image[:] = data.image
+    return st
+
+
+def chute_simulation(data_path: str | Path, replicate: tuple[int, int] = (1, 1),
+                     sort_every: int = 10) -> Simulation:
+    """A ready-to-run chute simulation reading LAMMPS's ``data.chute``."""
+    data = read_lammps_data(data_path)
+    st = chute_state(data, replicate)
+    law = GranularLaw(n_types=2)
+    law.set_all(kn=CHUTE["kn"], gamma_n=CHUTE["gamma_n"], gamma_t=0.0, mu=CHUTE["mu"])
+    sim = Simulation(st, CHUTE["dt"], law, skin=CHUTE["skin"], sort_every=sort_every)
+    sim.add_force(Gravity.chute(1.0, CHUTE["angle"]))
+    return sim

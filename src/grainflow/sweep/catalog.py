@@ -1,0 +1,272 @@
+"""The results catalog: one SQLite row per sweep point.
+
+The catalog lives in ``SWEEPDIR/catalog.sqlite``. Only the process driving the
+sweep writes to it; every change is one transaction in WAL mode, so a Ctrl-C or a
+``kill -9`` at any moment leaves either the old or the new row, never half of one,
+and ``grainflow sweep-status`` can read it while the sweep runs.
+
+A point's status moves ``pending -> running -> done | failed``. A sweep that is
+started again skips ``done`` points and reruns every other one.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sqlite3
+from collections.abc import Iterable
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import IO, Any
+
+from grainflow.sweep.spec import Point
+
+CATALOG_NAME = "catalog.sqlite"
+STATUSES = ("pending", "running", "done", "failed")
+SCHEMA_VERSION = "1"
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS points (
+    point_id    TEXT PRIMARY KEY,
+    params      TEXT NOT NULL,              -- JSON {dotted field: value}, without the seed
+    seed_field  TEXT NOT NULL,
+    seed        INTEGER NOT NULL,
+    status      TEXT NOT NULL CHECK (status IN ('pending', 'running', 'done', 'failed')),
+    rundir      TEXT NOT NULL,              -- relative to the sweep directory
+    summary     TEXT,                       -- JSON {name: number} from the analyses
+    wall_time   REAL,                       -- seconds spent by the last attempt
+    error       TEXT,                       -- traceback or message of the last failure
+    attempts    INTEGER NOT NULL DEFAULT 0, -- times a worker started this point
+    worker      TEXT,
+    started_at  TEXT,
+    finished_at TEXT
+);
+CREATE TABLE IF NOT EXISTS meta (
+    key   TEXT PRIMARY KEY,
+    value TEXT NOT NULL
+);
+"""
+
+
+@dataclass(frozen=True)
+class CatalogRow:
+    """One point as stored in the catalog."""
+
+    point_id: str
+    params: dict[str, Any]
+    seed_field: str
+    seed: int
+    status: str
+    rundir: str
+    summary: dict[str, float]
+    wall_time: float | None
+    error: str | None
+    attempts: int
+    worker: str | None
+    started_at: str | None
+    finished_at: str | None
+
+
+def now() -> str:
+    """Current UTC time as an ISO-8601 string."""
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def run_subdir(point_id: str) -> str:
+    """Where a point's run directory lives, relative to the sweep directory."""
+    return f"runs/{point_id}"
+
+
+class Catalog:
+    """SQLite catalog of a sweep directory. Use as a context manager or call :meth:`close`."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._conn = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
+        self._conn.execute("PRAGMA journal_mode=WAL")
+        self._conn.execute("PRAGMA synchronous=NORMAL")
+        with self._transaction():
+            for statement in _SCHEMA.split(";"):
+                if statement.strip():
+                    self._conn.execute(statement)
+            self._conn.execute(
+                "INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', ?)",
+                (SCHEMA_VERSION,),
+            )
+
+    @classmethod
+    def in_dir(cls, sweepdir: str | Path) -> Catalog:
+        """Open (creating if needed) the catalog of a sweep directory."""
+        return cls(Path(sweepdir) / CATALOG_NAME)
+
+    def __enter__(self) -> Catalog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._conn.close()
+
+    def _transaction(self) -> _Transaction:
+        """``with self._transaction():`` runs the block as one IMMEDIATE transaction."""
+        return _Transaction(self._conn)
+
+    # -- writing ---------------------------------------------------------------------
+
+    def register(self, points: Iterable[Point]) -> int:
+        """Add points not yet in the catalog as ``pending``; returns how many were new."""
+        rows = [
+            (p.point_id, json.dumps(p.overrides), p.seed_field, p.seed, run_subdir(p.point_id))
+            for p in points
+        ]
+        with self._transaction():
+            before = self._count()
+            self._conn.executemany(
+                "INSERT OR IGNORE INTO points (point_id, params, seed_field, seed, status, rundir)"
+                " VALUES (?, ?, ?, ?, 'pending', ?)",
+                rows,
+            )
+            return self._count() - before
+
+    def reset_running(self) -> int:
+        """Put ``running`` points back to ``pending`` (after an interrupted sweep)."""
+        with self._transaction():
+            cur = self._conn.execute("UPDATE points SET status = 'pending' WHERE status = 'running'")
+            return cur.rowcount
+
+    def mark_started(self, point_id: str, worker: str, started_at: str) -> None:
+        """A worker started the point: count the attempt and mark it ``running``.
+
+        A start report that arrives after the point already finished only counts
+        the attempt; it does not undo the final status.
+        """
+        with self._transaction():
+            self._conn.execute(
+                "UPDATE points SET attempts = attempts + 1, worker = ?, started_at = ?,"
+                " status = CASE WHEN status IN ('pending', 'running') THEN 'running'"
+                " ELSE status END WHERE point_id = ?",
+                (worker, started_at, point_id),
+            )
+
+    def mark_finished(
+        self,
+        point_id: str,
+        status: str,
+        *,
+        summary: dict[str, float] | None = None,
+        wall_time: float | None = None,
+        error: str | None = None,
+        worker: str | None = None,
+    ) -> None:
+        """Record the outcome of a point (``done`` or ``failed``)."""
+        if status not in ("done", "failed"):
+            raise ValueError(f"a finished point is 'done' or 'failed', not {status!r}")
+        with self._transaction():
+            self._conn.execute(
+                "UPDATE points SET status = ?, summary = ?, wall_time = ?, error = ?,"
+                " worker = COALESCE(?, worker), finished_at = ? WHERE point_id = ?",
+                (status, json.dumps(summary or {}), wall_time, error, worker, now(), point_id),
+            )
+
+    def set_meta(self, key: str, value: str) -> None:
+        with self._transaction():
+            self._conn.execute(
+                "INSERT INTO meta (key, value) VALUES (?, ?)"
+                " ON CONFLICT (key) DO UPDATE SET value = excluded.value",
+                (key, value),
+            )
+
+    # -- reading ---------------------------------------------------------------------
+
+    def get_meta(self, key: str) -> str | None:
+        row = self._conn.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
+        return row[0] if row else None
+
+    def statuses(self) -> dict[str, str]:
+        """``{point_id: status}`` for every point in the catalog."""
+        return dict(self._conn.execute("SELECT point_id, status FROM points"))
+
+    def counts(self, point_ids: Iterable[str] | None = None) -> dict[str, int]:
+        """Number of points per status, over all points or over ``point_ids``."""
+        statuses = self.statuses()
+        ids = statuses if point_ids is None else point_ids
+        counts = dict.fromkeys(STATUSES, 0)
+        for pid in ids:
+            counts[statuses[pid]] += 1
+        return counts
+
+    def rows(self, status: str | None = None) -> list[CatalogRow]:
+        """All points (or those with ``status``) in the order they were first registered."""
+        query = "SELECT * FROM points"
+        args: tuple[str, ...] = ()
+        if status is not None:
+            query += " WHERE status = ?"
+            args = (status,)
+        cur = self._conn.execute(query + " ORDER BY rowid", args)
+        names = [d[0] for d in cur.description]
+        return [_to_row(dict(zip(names, values))) for values in cur]
+
+    def _count(self) -> int:
+        return self._conn.execute("SELECT COUNT(*) FROM points").fetchone()[0]
+
+
+class _Transaction:
+    """Context manager: BEGIN IMMEDIATE ... COMMIT, or ROLLBACK on any exception."""
+
+    def __init__(self, conn: sqlite3.Connection) -> None:
+        self._conn = conn
+
+    def __enter__(self) -> sqlite3.Connection:
+        self._conn.execute("BEGIN IMMEDIATE")
+        return self._conn
+
+    def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:
+        self._conn.execute("ROLLBACK" if exc_type else "COMMIT")
+
+
+def _to_row(record: dict[str, Any]) -> CatalogRow:
+    record["params"] = json.loads(record["params"])
+    record["summary"] = json.loads(record["summary"]) if record["summary"] else {}
+    return CatalogRow(**record)
+
+
+def export_csv(rows: list[CatalogRow], stream: IO[str]) -> None:
+    """Write rows as CSV: identity, one column per parameter, seed, one per summary number,
+    then status, timing, run directory and error."""
+    param_cols = _union_keys(r.params for r in rows)
+    summary_cols = _union_keys(r.summary for r in rows)
+    seed_cols = _union_keys({r.seed_field: None} for r in rows)
+    header = [
+        "point_id", *param_cols, *seed_cols, "status", *summary_cols,
+        "wall_time", "attempts", "worker", "started_at", "finished_at", "rundir", "error",
+    ]
+    writer = csv.writer(stream)
+    writer.writerow(header)
+    for r in rows:
+        writer.writerow([
+            r.point_id,
+            *(_cell(r.params.get(c)) for c in param_cols),
+            *(r.seed if c == r.seed_field else "" for c in seed_cols),
+            r.status,
+            *(_cell(r.summary.get(c)) for c in summary_cols),
+            _cell(r.wall_time), r.attempts, r.worker or "", r.started_at or "",
+            r.finished_at or "", r.rundir, r.error or "",
+        ])
+
+
+def _union_keys(dicts: Iterable[dict[str, Any]]) -> list[str]:
+    """Keys of all dicts, in first-seen order."""
+    keys: dict[str, None] = {}
+    for d in dicts:
+        keys.update(dict.fromkeys(d))
+    return list(keys)
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, (dict, list)):
+        return json.dumps(value)
+    return str(value)

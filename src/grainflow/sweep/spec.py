@@ -1,0 +1,393 @@
+"""Sweep files: validation and expansion into points.
+
+A sweep file is TOML. Top-level keys configure the sweep, ``[base]`` (or
+``base = "file.toml"``) is the configuration every point starts from, and
+``[overrides]`` lists the values each overridden field takes::
+
+    name = "q-vs-w"
+    base = "hopper2d_tiny.toml"          # relative to this file; or an inline [base] table
+    mode = "grid"                         # "grid": Cartesian product, "zip": element-wise
+    replicates = 3                        # seeds seed_start, seed_start+1, ... (or seeds = [...])
+    seed_field = "run.seed"
+    analyses = ["grainflow.analysis.hopper:flow_rate_summary"]
+
+    [overrides]
+    "geometry.orifice_width" = {start = 3, stop = 10, num = 8}    # linspace
+    "contact.mu" = [0.1, 0.2]                                     # explicit values
+    "soft.zeta" = {start = 0.01, stop = 10, num = 4, scale = "log"}  # geometric spacing
+
+Each point is the base config with one value per overridden field plus a seed.
+Its identity (:attr:`Point.point_id`) is a hash of those values only, so the
+order in which a sweep file lists fields or values does not matter.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+DEFAULT_RUNNER = "grainflow.runner:run_config"
+_DOTTED_CALLABLE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
+_SIGNIFICANT_DIGITS = 12  # grid values are rounded to this many digits to drop float noise
+
+
+class SweepFileError(ValueError):
+    """A sweep file (or its base config) is invalid; the message says where and how to fix it."""
+
+
+def _check_dotted_callable(value: str) -> str:
+    if not _DOTTED_CALLABLE.match(value):
+        raise ValueError(
+            f"{value!r} is not a callable reference; write it as 'package.module:function'"
+        )
+    return value
+
+
+class Axis(BaseModel):
+    """The values one overridden field takes.
+
+    Written in the sweep file either as a list of values (``[0.1, 0.2]``) or as a
+    table: ``{values = [...]}``, ``{start, stop, num}`` (evenly spaced, both ends
+    included) or ``{start, stop, num, scale = "log"}`` (geometric spacing).
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    values: list[Any] | None = None
+    start: float | None = None
+    stop: float | None = None
+    num: int | None = Field(default=None, ge=1)
+    scale: Literal["linear", "log"] = "linear"
+
+    @model_validator(mode="before")
+    @classmethod
+    def _accept_plain_list(cls, data: Any) -> Any:
+        if isinstance(data, list):
+            return {"values": data}
+        if isinstance(data, dict):
+            return data
+        raise ValueError(
+            "expected a list of values such as [0.1, 0.2] or a range table such as "
+            "{start = 3, stop = 10, num = 8} (add scale = \"log\" for geometric spacing)"
+        )
+
+    @model_validator(mode="after")
+    def _one_form(self) -> Axis:
+        range_keys = {"start": self.start, "stop": self.stop, "num": self.num}
+        given = [k for k, v in range_keys.items() if v is not None]
+        if self.values is not None:
+            if given:
+                raise ValueError(f"give either 'values' or a range, not both (also got {given})")
+            if not self.values:
+                raise ValueError("the list of values is empty; give at least one value")
+            return self
+        missing = [k for k in range_keys if k not in given]
+        if missing:
+            raise ValueError(f"a range needs start, stop and num; missing {missing}")
+        if self.scale == "log" and (self.start <= 0 or self.stop <= 0):
+            raise ValueError(
+                f"scale = \"log\" needs start > 0 and stop > 0 (got start={self.start}, "
+                f"stop={self.stop}); use scale = \"linear\" or positive bounds"
+            )
+        return self
+
+    def resolve(self) -> list[Any]:
+        """The list of values, ranges expanded and rounded to 12 significant digits."""
+        if self.values is not None:
+            return list(self.values)
+        spacing = np.geomspace if self.scale == "log" else np.linspace
+        return [_round(float(v)) for v in spacing(self.start, self.stop, self.num)]
+
+
+def _round(value: float) -> float:
+    return float(f"{value:.{_SIGNIFICANT_DIGITS}g}")
+
+
+class SweepSpec(BaseModel):
+    """A validated sweep file. Build it with :func:`load_sweep` or :func:`parse_sweep`."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(min_length=1)
+    base: dict[str, Any]
+    mode: Literal["grid", "zip"] = "grid"
+    overrides: dict[str, Axis] = Field(default_factory=dict)
+    replicates: int = Field(default=1, ge=1)
+    seeds: list[int] | None = None
+    seed_start: int = 0
+    seed_field: str = "run.seed"
+    runner: str = DEFAULT_RUNNER
+    analyses: list[str] = Field(default_factory=list)
+
+    @field_validator("base", mode="before")
+    @classmethod
+    def _check_base(cls, value: Any) -> Any:
+        if not isinstance(value, dict):
+            raise ValueError(
+                "give the path of a config TOML file (relative to the sweep file) "
+                "or an inline [base] table"
+            )
+        return value
+
+    @field_validator("runner")
+    @classmethod
+    def _check_runner(cls, value: str) -> str:
+        return _check_dotted_callable(value)
+
+    @field_validator("analyses")
+    @classmethod
+    def _check_analyses(cls, value: list[str]) -> list[str]:
+        return [_check_dotted_callable(v) for v in value]
+
+    @field_validator("seeds")
+    @classmethod
+    def _check_seeds(cls, value: list[int] | None) -> list[int] | None:
+        if value is not None and (not value or len(set(value)) != len(value)):
+            raise ValueError("seeds must be a non-empty list of distinct integers")
+        return value
+
+    @model_validator(mode="after")
+    def _check_consistency(self) -> SweepSpec:
+        if self.seeds is not None and {"replicates", "seed_start"} & self.model_fields_set:
+            raise ValueError("give either 'seeds' or 'replicates'/'seed_start', not both")
+        for path in self.overrides:
+            _check_override_path(self.base, path)
+        _check_no_nesting([*self.overrides, self.seed_field])
+        _check_seed_field(self.base, self.seed_field)
+        if self.mode == "zip":
+            lengths = {path: len(axis.resolve()) for path, axis in self.overrides.items()}
+            if len(set(lengths.values())) > 1:
+                raise ValueError(
+                    f"mode = \"zip\" needs every override to have the same number of values; "
+                    f"got {lengths}. Make the lists equally long or use mode = \"grid\""
+                )
+        return self
+
+    def seed_values(self) -> list[int]:
+        """The seeds of the replicates, in order."""
+        if self.seeds is not None:
+            return list(self.seeds)
+        return list(range(self.seed_start, self.seed_start + self.replicates))
+
+    def points(self) -> list[Point]:
+        """Expand the sweep into its points (override combinations x seeds), in file order."""
+        paths = list(self.overrides)
+        columns = [self.overrides[p].resolve() for p in paths]
+        combos = itertools.product(*columns) if self.mode == "grid" else zip(*columns)
+        points: list[Point] = []
+        seen: dict[str, int] = {}
+        for values in combos:
+            for replicate, seed in enumerate(self.seed_values()):
+                point = Point(dict(zip(paths, values)), self.seed_field, seed, replicate)
+                if point.point_id in seen:
+                    raise SweepFileError(
+                        f"points {seen[point.point_id]} and {len(points)} are identical "
+                        f"({point.label()}); remove the repeated value from [overrides]"
+                    )
+                seen[point.point_id] = len(points)
+                points.append(point)
+        return points
+
+
+@dataclass(frozen=True, eq=False)
+class Point:
+    """One run of a sweep: the overridden values and the seed."""
+
+    overrides: dict[str, Any]
+    seed_field: str
+    seed: int
+    replicate: int
+
+    @property
+    def point_id(self) -> str:
+        """Stable 16-hex-digit hash of the override values and the seed."""
+        return point_id(self.overrides, self.seed_field, self.seed)
+
+    def config(self, base: dict[str, Any]) -> dict[str, Any]:
+        """The fully resolved config: a deep copy of ``base`` with this point's values set."""
+        config = copy.deepcopy(base)
+        for path, value in {**self.overrides, self.seed_field: self.seed}.items():
+            set_dotted(config, path, copy.deepcopy(value))
+        return config
+
+    def label(self) -> str:
+        """Short human-readable description, e.g. ``contact.mu=0.1 run.seed=2``."""
+        items = {**self.overrides, self.seed_field: self.seed}
+        return " ".join(f"{k}={v!r}" for k, v in items.items())
+
+
+def point_id(overrides: dict[str, Any], seed_field: str, seed: int) -> str:
+    """Hash of a point's values; key order and int/float spelling (3 vs 3.0) do not matter."""
+    items = {**overrides, seed_field: seed}
+    text = json.dumps(_canonical(items), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _canonical(value: Any) -> Any:
+    """Normalise numbers so that equal values hash equally."""
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return value
+    if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
+        return int(value)
+    if isinstance(value, (int, float)):
+        return value
+    if isinstance(value, dict):
+        return {str(k): _canonical(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_canonical(v) for v in value]
+    return str(value)  # TOML dates and times
+
+
+def get_dotted(config: dict[str, Any], path: str) -> Any:
+    """Value at a dotted path such as ``"contact.mu"``; raises KeyError if absent."""
+    node: Any = config
+    for key in path.split("."):
+        if not isinstance(node, dict) or key not in node:
+            raise KeyError(path)
+        node = node[key]
+    return node
+
+
+def set_dotted(config: dict[str, Any], path: str, value: Any) -> None:
+    """Set the value at a dotted path, creating intermediate tables as needed."""
+    *parents, leaf = path.split(".")
+    node = config
+    for key in parents:
+        node = node.setdefault(key, {})
+    node[leaf] = value
+
+
+def _check_override_path(base: dict[str, Any], path: str) -> None:
+    """An override must name a field that the base config sets (catches typos)."""
+    try:
+        get_dotted(base, path)
+    except KeyError:
+        raise ValueError(
+            f"override {path!r} is not a field of the base config; "
+            f"{_nearby_keys(base, path)} "
+            "(to sweep a field the base config leaves at its default, add it to the base config)"
+        ) from None
+
+
+def _nearby_keys(base: dict[str, Any], path: str) -> str:
+    """Describe the keys present where a dotted path stops matching the config."""
+    node: Any = base
+    walked: list[str] = []
+    for key in path.split("."):
+        if not isinstance(node, dict) or key not in node:
+            break
+        node = node[key]
+        walked.append(key)
+    where = ".".join(walked) or "the top level"
+    if not isinstance(node, dict):
+        return f"{where!r} is a value, not a table"
+    return f"keys at {where}: {sorted(node) or 'none'}"
+
+
+def _check_seed_field(base: dict[str, Any], seed_field: str) -> None:
+    """The seed field may be absent, but its parent must not be a plain value."""
+    parents = seed_field.split(".")[:-1]
+    node: Any = base
+    for key in parents:
+        node = node.get(key, {}) if isinstance(node, dict) else None
+        if not isinstance(node, dict):
+            raise ValueError(
+                f"seed_field {seed_field!r} runs through {key!r}, which the base config sets "
+                "to a value, not a table; point seed_field at the config's seed setting"
+            )
+
+
+def _check_no_nesting(paths: list[str]) -> None:
+    """Two overridden fields must not contain one another (e.g. 'a' and 'a.b')."""
+    for a, b in itertools.permutations(paths, 2):
+        if b.startswith(a + ".") or a == b:
+            raise ValueError(f"overrides {a!r} and {b!r} address the same field; keep one")
+
+
+# ---------------------------------------------------------------------------------------
+# Loading
+
+
+def load_sweep(path: str | Path) -> SweepSpec:
+    """Read and validate a sweep file; ``base = "x.toml"`` is resolved relative to it."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise SweepFileError(f"{path}: sweep file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepFileError(f"{path}: not valid TOML: {exc}") from None
+    return parse_sweep(data, source=path)
+
+
+def parse_sweep(data: dict[str, Any], source: Path | None = None) -> SweepSpec:
+    """Validate a parsed sweep file. ``source`` locates relative base paths and names the file."""
+    data = dict(data)
+    where = f"{source}: " if source else ""
+    if source is not None:
+        data.setdefault("name", source.stem)
+    if isinstance(data.get("base"), str):
+        data["base"] = _load_base(data["base"], source, where)
+    try:
+        return SweepSpec.model_validate(data)
+    except ValidationError as exc:
+        raise SweepFileError(where + format_validation_error(exc)) from None
+
+
+def _load_base(name: str, source: Path | None, where: str) -> dict[str, Any]:
+    base_path = Path(name)
+    if not base_path.is_absolute() and source is not None:
+        base_path = source.parent / base_path
+    try:
+        return tomllib.loads(base_path.read_text())
+    except FileNotFoundError:
+        raise SweepFileError(
+            f"{where}field 'base': base config {str(base_path)!r} not found; give a path "
+            "relative to the sweep file or an inline [base] table"
+        ) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepFileError(f"{where}field 'base': {base_path} is not valid TOML: {exc}") from None
+
+
+def format_validation_error(exc: ValidationError) -> str:
+    """One line per problem: dotted field, the offending value and what is valid."""
+    lines = [f"{exc.error_count()} problem(s) in the sweep file:"]
+    for err in exc.errors():
+        field = _format_loc(err["loc"])
+        message = err["msg"].removeprefix("Value error, ")
+        if err["type"] == "extra_forbidden":
+            valid = _valid_keys(err["loc"])
+            message = f"unknown field; valid fields here: {', '.join(valid)}"
+        shown = _short(err["input"])
+        value = "" if not err["loc"] or shown in message else f" (got {shown})"
+        lines.append(f"  - {field}: {message}{value}")
+    return "\n".join(lines)
+
+
+def _format_loc(loc: tuple[Any, ...]) -> str:
+    """('overrides', 'contact.mu', 'num') -> 'field overrides."contact.mu".num'."""
+    if not loc:
+        return "sweep file"
+    parts = [f'"{p}"' if isinstance(p, str) and "." in p else str(p) for p in loc]
+    return "field " + ".".join(parts)
+
+
+def _valid_keys(loc: tuple[Any, ...]) -> list[str]:
+    model = Axis if len(loc) >= 3 and loc[0] == "overrides" else SweepSpec
+    return list(model.model_fields)
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
