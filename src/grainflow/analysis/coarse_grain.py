@@ -106,8 +106,9 @@ def coarse_grain(
     pts = _points_array("points", points, pos.shape[1])
     q = np.ones(pos.shape[0]) if values is None else np.asarray(values, dtype=float)
     if q.shape[:1] != pos.shape[:1] or q.ndim > 2:
-        raise ValueError(f"values: expected shape ({pos.shape[0]},) or ({pos.shape[0]}, k), got {q.shape}")
-    q2 = q.reshape(pos.shape[0], -1)
+        n = pos.shape[0]
+        raise ValueError(f"values: expected shape ({n},) or ({n}, k), got {q.shape}")
+    q2 = q[:, None] if q.ndim == 1 else q
     out = np.zeros((pts.shape[0], q2.shape[1]))
     grains = cKDTree(pos)
     for start in range(0, pts.shape[0], _POINTS_PER_CHUNK):
@@ -169,7 +170,8 @@ def velocity_field(
     m = np.ones(pos.shape[0]) if masses is None else np.asarray(masses, dtype=float)
     if m.shape != (pos.shape[0],) or vel.shape[0] != pos.shape[0]:
         raise ValueError("velocities/masses: need one row per grain in positions")
-    sums = coarse_grain(points, pos, np.column_stack([m[:, None] * vel, m]), sigma=sigma, cutoff=cutoff)
+    weighted = np.column_stack([m[:, None] * vel, m])
+    sums = coarse_grain(points, pos, weighted, sigma=sigma, cutoff=cutoff)
     with np.errstate(invalid="ignore", divide="ignore"):
         return sums[:, :-1] / sums[:, -1:]
 

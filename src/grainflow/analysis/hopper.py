@@ -175,7 +175,8 @@ def flow_rate_from_events(
     The seed (Sec. 2.4) counts a grain as discharged the first time it exits the orifice and
     measures the area (2D) or volume (3D) flow rate Q in units Q0 = sigma_avg^d / t0. Here::
 
-        dN/dt = n_events / (t_end - t_start),   Q = sum_{t_start <= t_i <= t_end} s_i / (t_end - t_start)
+        dN/dt = n_events / (t_end - t_start),
+        Q     = sum_{t_start <= t_i <= t_end} s_i / (t_end - t_start)
 
     with s_i the area/volume of the grain of event i.
 
@@ -245,7 +246,9 @@ def flow_rate_from_events(
             f"times: the steady window [{t_start}, {t1}] holds {n_events} events, fewer than 2 "
             f"per block; run longer or lower n_blocks"
         )
-    number_rates, size_rates = _block_rates(t_rec[in_window], s_rec[in_window], t_start, t1, n_blocks)
+    number_rates, size_rates = _block_rates(
+        t_rec[in_window], s_rec[in_window], t_start, t1, n_blocks
+    )
     number_rate, number_rate_err = _mean_and_sem(number_rates)
     flow_rate, flow_rate_err = _mean_and_sem(size_rates)
     return FlowRate(

@@ -78,6 +78,19 @@ class PairForce(Force):
         gather_pair_forces(nl.row_ptr, nl.col_ptr, nl.col_pair, self.f_pair, self.c_pair,
                            st.radius, st.force, st.torque)
 
+    def compute_pair_only(self, sim: "Simulation") -> None:
+        """Refill the per-pair force buffers without touching particle forces or history.
+
+        Used after a checkpoint load so that :meth:`contacts` reports the saved step's
+        contacts; the history is evaluated on a copy so it does not advance.
+        """
+        st = sim.state
+        nl = sim.neighbors
+        g = sim.geometry
+        evaluate_pairs(self.law.evaluator, self.law.table, st.x, st.v, st.omega, st.radius,
+                       st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr, self.history.copy(),
+                       self.f_pair, self.c_pair, g.length, g.periodic, sim.dt, False)
+
     def contacts(self, sim: "Simulation") -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                      np.ndarray]:
         """Interacting pairs now: indices i, j, force on i (M, 3), branch x_i - x_j (M, 3)."""

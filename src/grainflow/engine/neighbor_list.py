@@ -123,18 +123,21 @@ class NeighborList:
     def build(self, state: ParticleState, geom: ListGeometry, cells) -> None:
         """Build the half list and its transpose from :meth:`cell_order`'s result."""
         coords, keys, order, cmin, extent, ncell, offsets, margin = cells
+        n = state.n
         sorted_keys = keys[order]
-        if state.n:
+        if n:
             starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
-            cell_keys = np.ascontiguousarray(sorted_keys[starts])
-            cell_start = np.r_[starts, state.n].astype(np.int64)
         else:
-            cell_keys = np.zeros(0, dtype=np.int64)
-            cell_start = np.zeros(1, dtype=np.int64)
+            starts = np.zeros(0, dtype=np.int64)
+        cell_keys = np.ascontiguousarray(sorted_keys[starts])
+        cell_start = np.r_[starts, n].astype(np.int64)
+        cell_of = np.empty(n, dtype=np.int64)
+        cell_of[order] = np.repeat(np.arange(starts.shape[0]), np.diff(cell_start))
+        table = nk.cell_neighbor_table(np.ascontiguousarray(coords[order[starts]]), cell_keys,
+                                       offsets, cmin, extent, geom.periodic, ncell)
         self.row_ptr, self.nbr = nk.build_half_list(
-            state.x, state.radius, state.frozen, state.body, coords, cell_keys, cell_start,
-            order.astype(np.int64), offsets, cmin, extent, geom.periodic, ncell, geom.length,
-            margin)
+            state.x, state.radius, state.frozen, state.body, cell_of, table, cell_start,
+            order.astype(np.int64), geom.length, geom.periodic, margin)
         self.col_ptr, self.col_pair = nk.transpose_index(self.row_ptr, self.nbr, state.n)
         self._x_ref = state.x.copy()
         self._generation = state.generation

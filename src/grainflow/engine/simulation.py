@@ -87,7 +87,7 @@ class Simulation:
     def __init__(self, state: ParticleState, dt: float, law: ContactLaw | None = None, *,
                  skin: float | None = None, integrator: Integrator | None = None,
                  sort_every: int = 10, check_every: int = 100,
-                 max_overlap_fraction: float = 0.5) -> None:
+                 max_overlap_fraction: float = 0.5, seed: int | None = None) -> None:
         if not (dt > 0 and np.isfinite(dt)):
             raise ValueError(f"dt: {dt!r} is not valid; expected a positive time step")
         self.state = state
@@ -107,6 +107,8 @@ class Simulation:
         self.check_every = int(check_every)
         self.max_overlap_fraction = float(max_overlap_fraction)
         self.forces_current = False
+        #: The run's random-number generator (insertion, thinning); saved in checkpoints.
+        self.rng = np.random.default_rng(seed)
         self.rebuilds = 0
         self.wall_seconds = 0.0
         self.particle_steps = 0
@@ -311,6 +313,72 @@ class Simulation:
     def frame(self, contacts: bool = False) -> Frame:
         """A copy of the current state as a :class:`Frame`."""
         return self.state.to_frame(self.step, self.time, self.contacts() if contacts else None)
+
+    # -------------------------------------------------------- checkpoints
+    def state_dict(self) -> dict[str, Any]:
+        """Everything needed to continue this run bitwise identically.
+
+        Particle arrays (including integrator history registered in the state), step, time,
+        dt, the neighbour list as built (so re-sorting happens at the same steps), pair and
+        operation histories, and the random-number generator state. Values are numpy arrays
+        or plain Python scalars/dicts; nested dicts mirror the operations' names.
+        """
+        nl = self.neighbors
+        data: dict[str, Any] = {
+            "step": self.step, "time": self.time, "dt": self.dt,
+            "particle_steps": self.particle_steps,
+            "forces_current": self.forces_current,
+            "arrays": {k: v.copy() for k, v in self.state.arrays.items()},
+            "next_id": self.state._next_id,
+            "neighbors": {"row_ptr": nl.row_ptr.copy(), "nbr": nl.nbr.copy(),
+                          "col_ptr": nl.col_ptr.copy(), "col_pair": nl.col_pair.copy(),
+                          "x_ref": nl._x_ref.copy(), "builds": nl.builds},
+            "pair": self.pair.state_dict() if self.pair is not None else {},
+            "forces": {str(k): f.state_dict() for k, f in enumerate(self.forces)},
+            "updaters": {str(k): u.owner.state_dict() for k, u in enumerate(self.updaters)
+                         if hasattr(u.owner, "state_dict")},
+            "rng": self.rng.bit_generator.state,
+        }
+        return data
+
+    def load_state_dict(self, data: dict[str, Any]) -> None:
+        """Restore a :meth:`state_dict` into a simulation built with the same operations."""
+        st = self.state
+        arrays = data["arrays"]
+        for name, arr in arrays.items():
+            if name not in st.arrays:
+                st.add_array(name, arr.shape[1:], arr.dtype)
+            st.arrays[name] = np.array(arr, dtype=st.arrays[name].dtype)
+        st._next_id = int(data["next_id"])
+        st.generation += 1
+        self.step = int(data["step"])
+        self.time = float(data["time"])
+        self.dt = float(data["dt"])
+        self.particle_steps = int(data.get("particle_steps", 0))
+        nl = self.neighbors
+        nb = data["neighbors"]
+        nl.row_ptr = np.asarray(nb["row_ptr"], dtype=np.int64)
+        nl.nbr = np.asarray(nb["nbr"], dtype=np.int64)
+        nl.col_ptr = np.asarray(nb["col_ptr"], dtype=np.int64)
+        nl.col_pair = np.asarray(nb["col_pair"], dtype=np.int64)
+        nl._x_ref = np.asarray(nb["x_ref"], dtype=np.float64)
+        nl.builds = int(nb["builds"])
+        nl._generation = st.generation
+        if self.pair is not None:
+            self.pair.load_state_dict(data["pair"])
+            self.pair.f_pair = np.zeros((nl.n_pairs, 3))
+            self.pair.c_pair = np.zeros((nl.n_pairs, 3))
+        for k, f in enumerate(self.forces):
+            f.load_state_dict(data["forces"].get(str(k), {}))
+        for k, u in enumerate(self.updaters):
+            if hasattr(u.owner, "load_state_dict") and str(k) in data["updaters"]:
+                u.owner.load_state_dict(data["updaters"][str(k)])
+        self.rng.bit_generator.state = data["rng"]
+        # Forces are part of the saved arrays; with them current the next step continues
+        # exactly where the saved run was.
+        self.forces_current = bool(data["forces_current"])
+        if self.pair is not None and self.forces_current:
+            self.pair.compute_pair_only(self)
 
     def memory_bytes(self) -> dict[str, int]:
         """Bytes held by particle state, neighbour list and contact history."""

@@ -54,90 +54,114 @@ def linear_keys(c, cmin, extent):
 
 
 @njit(cache=True)
-def _neighbor_cell_key(ci, d, cmin, extent, periodic, ncell):
-    """Key of the cell at offset ``d`` from cell coordinates ``ci``; -1 if outside."""
-    key = np.int64(0)
-    for a in range(3):
-        ca = ci[a] + d[a]
-        if periodic[a]:
-            ca = ca % ncell[a]
-        ca -= cmin[a]
-        if ca < 0 or ca >= extent[a]:
-            return np.int64(-1)
-        key = key * extent[a] + ca
-    return key
-
-
-@njit(cache=True)
 def _find(sorted_keys, key):
-    """Index of ``key`` in ``sorted_keys`` or -1."""
-    k = np.searchsorted(sorted_keys, key)
-    if k < sorted_keys.shape[0] and sorted_keys[k] == key:
-        return k
+    """Index of ``key`` in ``sorted_keys`` (binary search) or -1."""
+    lo = 0
+    hi = sorted_keys.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if sorted_keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    if lo < sorted_keys.shape[0] and sorted_keys[lo] == key:
+        return lo
     return -1
 
 
-@njit(cache=True)
-def _pair_excluded(i, j, frozen, body):
-    if frozen[i] and frozen[j]:
-        return True
-    return body[i] >= 0 and body[i] == body[j]
+@njit(cache=True, parallel=True)
+def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic, ncell):
+    """For each occupied cell, the indices of its occupied neighbour cells (-1: empty).
 
-
-@njit(cache=True)
-def _scan(i, x, radius, frozen, body, coords, cell_keys, cell_start, order, offsets,
-          cmin, extent, periodic, ncell, box_len, margin, out, write):
-    """Count (and, if ``write``, store into ``out``) the partners j > i of particle i."""
-    count = 0
-    ci = coords[i]
-    d = np.empty(3, dtype=np.int64)
-    for o in range(offsets.shape[0]):
-        d[0] = offsets[o, 0]
-        d[1] = offsets[o, 1]
-        d[2] = offsets[o, 2]
-        key = _neighbor_cell_key(ci, d, cmin, extent, periodic, ncell)
-        if key < 0:
-            continue
-        c = _find(cell_keys, key)
-        if c < 0:
-            continue
-        for s in range(cell_start[c], cell_start[c + 1]):
-            j = order[s]
-            if j <= i or _pair_excluded(i, j, frozen, body):
-                continue
-            rsq = 0.0
+    ``cell_coords`` (C, 3) are the integer coordinates of the occupied cells; ``offsets``
+    (Q, 3) the stencil (27 cells in 3D, 9 in 2D, fewer on short periodic axes).
+    """
+    nc = cell_keys.shape[0]
+    nq = offsets.shape[0]
+    table = np.empty((nc, nq), dtype=np.int64)
+    for c in prange(nc):
+        for q in range(nq):
+            key = np.int64(0)
+            inside = True
             for a in range(3):
-                da = minimum_image(x[i, a] - x[j, a], box_len[a], periodic[a])
-                rsq += da * da
-            cut = radius[i] + radius[j] + margin
-            if rsq < cut * cut:
+                ca = cell_coords[c, a] + offsets[q, a]
+                if periodic[a]:
+                    ca = ca % ncell[a]
+                ca -= cmin[a]
+                if ca < 0 or ca >= extent[a]:
+                    inside = False
+                key = key * extent[a] + ca
+            table[c, q] = _find(cell_keys, key) if inside else -1
+    return table
+
+
+@njit(cache=True)
+def _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order, box_len, periodic,
+          margin, out, offset, write):
+    """Count (and, if ``write``, store at ``out[offset:]``) the partners j > i of i."""
+    count = 0
+    c = cell_of[i]
+    xi0 = x[i, 0]
+    xi1 = x[i, 1]
+    xi2 = x[i, 2]
+    ri = radius[i] + margin
+    fi = frozen[i]
+    bi = body[i]
+    for q in range(table.shape[1]):
+        cj = table[c, q]
+        if cj < 0:
+            continue
+        for s in range(cell_start[cj], cell_start[cj + 1]):
+            j = order[s]
+            if j <= i:
+                continue
+            if fi and frozen[j]:
+                continue
+            if bi >= 0 and body[j] == bi:
+                continue
+            d0 = minimum_image(xi0 - x[j, 0], box_len[0], periodic[0])
+            d1 = minimum_image(xi1 - x[j, 1], box_len[1], periodic[1])
+            d2 = minimum_image(xi2 - x[j, 2], box_len[2], periodic[2])
+            cut = ri + radius[j]
+            if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
                 if write:
-                    out[count] = j
+                    out[offset + count] = j
                 count += 1
     return count
 
 
+@njit(cache=True)
+def _insertion_sort(a, lo, hi):
+    for p in range(lo + 1, hi):
+        v = a[p]
+        q = p - 1
+        while q >= lo and a[q] > v:
+            a[q + 1] = a[q]
+            q -= 1
+        a[q + 1] = v
+
+
 @njit(cache=True, parallel=True)
-def build_half_list(x, radius, frozen, body, coords, cell_keys, cell_start, order, offsets,
-                    cmin, extent, periodic, ncell, box_len, margin):
+def build_half_list(x, radius, frozen, body, cell_of, table, cell_start, order, box_len,
+                    periodic, margin):
     """Half Verlet list (row_ptr, nbr) with rows sorted ascending.
 
-    ``margin`` = interaction reach beyond contact + skin.
+    ``cell_of[i]`` is the occupied-cell index of particle i, ``table`` the cell stencil from
+    :func:`cell_neighbor_table`, ``order`` the particles sorted by cell and ``cell_start``
+    the start of each cell in ``order``. ``margin`` = interaction reach + skin. Pairs of two
+    frozen particles and pairs within one body are left out.
     """
     n = x.shape[0]
     counts = np.zeros(n + 1, dtype=np.int64)
-    dummy = np.empty(0, dtype=np.int64)
     for i in prange(n):
-        counts[i + 1] = _scan(i, x, radius, frozen, body, coords, cell_keys, cell_start, order,
-                              offsets, cmin, extent, periodic, ncell, box_len, margin, dummy,
-                              False)
+        counts[i + 1] = _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order,
+                              box_len, periodic, margin, counts, 0, False)
     row_ptr = np.cumsum(counts)
     nbr = np.empty(row_ptr[n], dtype=np.int64)
     for i in prange(n):
-        row = nbr[row_ptr[i]:row_ptr[i + 1]]
-        _scan(i, x, radius, frozen, body, coords, cell_keys, cell_start, order, offsets, cmin,
-              extent, periodic, ncell, box_len, margin, row, True)
-        row.sort()
+        _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order, box_len, periodic,
+              margin, nbr, row_ptr[i], True)
+        _insertion_sort(nbr, row_ptr[i], row_ptr[i + 1])
     return row_ptr, nbr
 
 

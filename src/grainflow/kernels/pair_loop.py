@@ -3,11 +3,13 @@
 A contact law is a compiled *evaluator* (see :mod:`grainflow.models.base`) with the
 signature::
 
-    evaluate(p, dx, dy, dz, rsq, rad_i, rad_j, vrx, vry, vrz,
+    evaluate(table, type_i, type_j, dx, dy, dz, rsq, rad_i, rad_j, vrx, vry, vrz,
              wix, wiy, wiz, wjx, wjy, wjz, meff, hist, k, dt, update)
         -> (fx, fy, fz, cx, cy, cz)
 
-``p`` is the law's parameter row for the type pair, ``d = x_i - x_j`` the branch vector
+``table[type_i, type_j, :]`` holds the law's parameters for the type pair (the whole table
+is passed, not a row: creating an array view per pair costs more than the whole contact
+computation), ``d = x_i - x_j`` the branch vector
 (minimum image), ``vr = v_i - v_j``, ``w`` the angular velocities, ``meff`` the effective
 mass (``m_i m_j / (m_i + m_j)``, or the mobile partner's mass when the other is frozen or a
 wall), ``hist[k]`` the pair's history row. The evaluator returns the force on ``i`` and the
@@ -52,7 +54,7 @@ def evaluate_pairs(evaluate, params, x, v, omega, radius, mass, ptype, frozen, r
             else:
                 meff = mi * mj / (mi + mj)
             fx, fy, fz, cx, cy, cz = evaluate(
-                params[ptype[i], ptype[j]], dx, dy, dz, rsq, radius[i], radius[j],
+                params, ptype[i], ptype[j], dx, dy, dz, rsq, radius[i], radius[j],
                 v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
                 omega[i, 0], omega[i, 1], omega[i, 2], omega[j, 0], omega[j, 1], omega[j, 2],
                 meff, hist, k, dt, update)

@@ -42,7 +42,7 @@ KN, KT, GAMMA_N, GAMMA_T, MU, FC, DELTA_C, MASS_DAMPING = range(8)
 
 
 @njit(cache=True)
-def granular_evaluate(p, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, wi3, wj1, wj2,
+def granular_evaluate(tab, ti, tj, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, wi3, wj1, wj2,
                       wj3, meff, hist, k, dt, update):
     """Force on i and torque vector for one pair (see module docstring)."""
     radsum = radi + radj
@@ -50,21 +50,21 @@ def granular_evaluate(p, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, w
         hist[k, 0] = 0.0
         hist[k, 1] = 0.0
         hist[k, 2] = 0.0
-        fc = p[FC]
+        fc = tab[ti, tj, FC]
         if fc > 0.0 and hist[k, 3] > 0.0:
             r = math.sqrt(rsq)
-            if r - radsum < p[DELTA_C]:
+            if r - radsum < tab[ti, tj, DELTA_C]:
                 s = -fc / r
                 return s * dx, s * dy, s * dz, 0.0, 0.0, 0.0
             if update:
                 hist[k, 3] = 0.0
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
-    kn = p[KN]
-    kt = p[KT]
-    md = meff if p[MASS_DAMPING] > 0.0 else 1.0
-    gamman = p[GAMMA_N]
-    gammat = p[GAMMA_T]
+    kn = tab[ti, tj, KN]
+    kt = tab[ti, tj, KT]
+    md = meff if tab[ti, tj, MASS_DAMPING] > 0.0 else 1.0
+    gamman = tab[ti, tj, GAMMA_N]
+    gammat = tab[ti, tj, GAMMA_T]
     r = math.sqrt(rsq)
     rinv = 1.0 / r
     rsqinv = 1.0 / rsq
@@ -97,7 +97,7 @@ def granular_evaluate(p, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, w
         hist[k, 0] += vtr1 * dt
         hist[k, 1] += vtr2 * dt
         hist[k, 2] += vtr3 * dt
-        if p[FC] > 0.0:
+        if tab[ti, tj, FC] > 0.0:
             hist[k, 3] = 1.0
     shrmag = math.sqrt(hist[k, 0] ** 2 + hist[k, 1] ** 2 + hist[k, 2] ** 2)
     rsht = (hist[k, 0] * dx + hist[k, 1] * dy + hist[k, 2] * dz) * rsqinv
@@ -111,7 +111,7 @@ def granular_evaluate(p, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, w
     fs2 = -(kt * hist[k, 1] + md * gammat * vtr2)
     fs3 = -(kt * hist[k, 2] + md * gammat * vtr3)
     fs = math.sqrt(fs1 * fs1 + fs2 * fs2 + fs3 * fs3)
-    fn = p[MU] * abs(ccel * r)
+    fn = tab[ti, tj, MU] * abs(ccel * r)
     if fs > fn:
         if shrmag != 0.0 and kt > 0.0:
             scale = fn / fs

@@ -34,15 +34,15 @@ EPSILON, MU_KINETIC = range(2)
 
 
 @njit(cache=True)
-def soft_evaluate(p, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, wi3, wj1, wj2, wj3,
+def soft_evaluate(tab, ti, tj, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, wi3, wj1, wj2, wj3,
                   meff, hist, k, dt, update):
     """Harmonic repulsion + kinetic friction on i (see module docstring)."""
     sigma = radi + radj
     if rsq >= sigma * sigma:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     r = math.sqrt(rsq)
-    s = p[EPSILON] / sigma * (1.0 - r / sigma) / r
-    mu = p[MU_KINETIC]
+    s = tab[ti, tj, EPSILON] / sigma * (1.0 - r / sigma) / r
+    mu = tab[ti, tj, MU_KINETIC]
     return (s * dx - mu * vr1, s * dy - mu * vr2, s * dz - mu * vr3, 0.0, 0.0, 0.0)
 
 
