@@ -13,10 +13,10 @@ links).
 Durability: the file is written in HDF5 SWMR mode, whose ordered metadata flushes keep the
 file consistent at every instant. :meth:`TrajectoryWriter.append` writes a frame's data and
 time, flushes, and only then extends ``step`` and flushes again, so a frame exists once
-``step`` covers it (``len(step)`` is the frame count; other datasets may be one longer). A writer killed at any moment leaves all earlier frames
-readable. HDF5 then still marks the file "open for writing"; the readers here open it in SWMR
-read mode, which accepts that, and ``TrajectoryWriter(..., append=True)`` rewrites such a file
-cleanly before appending.
+``step`` covers it (``len(step)`` is the frame count; other datasets may be one longer).
+A writer killed at any moment leaves all earlier frames readable. HDF5 then still marks the
+file "open for writing"; the readers here open it in SWMR read mode, which accepts that, and
+``TrajectoryWriter(..., append=True)`` rewrites such a file cleanly before appending.
 """
 
 from __future__ import annotations
@@ -103,7 +103,9 @@ class TrajectoryWriter:
     contacts:
         Store each frame's :class:`~grainflow.frame.Contacts` (frames must then carry them).
     compression:
-        ``"gzip"`` (default), ``"lzf"`` or ``None``.
+        ``"gzip"`` (default; level 4 with shuffle, readable by every HDF5 build), ``None``
+        (several times faster to write; DEM float data shrink only ~25 % with gzip) or
+        ``"lzf"`` (fast, but only h5py can read it). Ignored when appending to a file.
     append:
         Continue an existing file instead of overwriting it (a missing file is created).
     resume_step:
@@ -220,7 +222,8 @@ class TrajectoryWriter:
                 f"{self._last_step}; when resuming, open with append=True, resume_step=<checkpoint step>"
             )
         for fld in _PARTICLE_FIELDS:
-            _check_shape(where, f"frame.{fld.attr}", getattr(frame, fld.attr), (frame.n, *fld.trailing(self.dim)))
+            expected = (frame.n, *fld.trailing(self.dim))
+            _check_shape(where, f"frame.{fld.attr}", getattr(frame, fld.attr), expected)
         if not self.contacts:
             return
         c = frame.contacts
@@ -230,7 +233,8 @@ class TrajectoryWriter:
         _check_shape(where, "frame.contacts.i", c.i, (m,))
         _check_shape(where, "frame.contacts.j", c.j, (m,))
         for fld in _CONTACT_FIELDS:
-            _check_shape(where, f"frame.contacts.{fld.attr}", getattr(c, fld.attr), (m, *fld.trailing(self.dim)))
+            expected = (m, *fld.trailing(self.dim))
+            _check_shape(where, f"frame.contacts.{fld.attr}", getattr(c, fld.attr), expected)
 
 
 def count_frames(path: str | os.PathLike[str]) -> int:
@@ -258,7 +262,9 @@ def read_frame(path: str | os.PathLike[str], index: int) -> Frame:
 # --- file creation ----------------------------------------------------------------------
 
 
-def _create_layout(f: h5py.File, dim: int, periodic: tuple[bool, ...], contacts: bool, compression: str | None) -> None:
+def _create_layout(
+    f: h5py.File, dim: int, periodic: tuple[bool, ...], contacts: bool, compression: str | None
+) -> None:
     """Create every group and dataset of an empty trajectory (SWMR forbids creating later)."""
     h5md = f.create_group("h5md")
     h5md.attrs["version"] = np.array(H5MD_VERSION, dtype=np.int32)
