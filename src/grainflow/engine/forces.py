@@ -52,8 +52,10 @@ class PairForce(Force):
         self._ptr = np.zeros(1, dtype=np.int64)
         self._nbr = np.zeros(0, dtype=np.int64)
         self.history = np.zeros((0, h))
-        self.f_pair = np.zeros((0, 3))
-        self.c_pair = np.zeros((0, 3))
+        #: Per pair slot: force on i (3) and the torque vector c (3), valid where ``active``.
+        self.fc_pair = np.zeros((0, 6))
+        #: 1 where the law was evaluated at the last force call (see pair_loop).
+        self.active = np.zeros(0, dtype=np.uint8)
 
     def reindex(self, old_to_new: np.ndarray) -> None:
         """Follow a permutation/deletion of particles (``old_to_new[i] = -1`` drops i)."""
@@ -65,55 +67,47 @@ class PairForce(Force):
         new_hist = np.empty((nbr.shape[0], self.law.history_size))
         nk.carry_history(self._ptr, self._nbr, self.history, row_ptr, nbr, new_hist)
         self._ptr, self._nbr, self.history = row_ptr, nbr, new_hist
-        self.f_pair = np.zeros((nbr.shape[0], 3))
-        self.c_pair = np.zeros((nbr.shape[0], 3))
+        self.fc_pair = np.zeros((nbr.shape[0], 6))
+        self.active = np.any(new_hist != 0.0, axis=1).astype(np.uint8)
 
     def compute(self, sim: "Simulation", update: bool) -> None:
         st = sim.state
         nl = sim.neighbors
         g = sim.geometry
-        evaluate_pairs(self.law.evaluator, self.law.table, st.x, st.v, st.omega, st.radius,
-                       st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr, self.history,
-                       self.f_pair, self.c_pair, g.length, g.periodic, sim.dt, update)
-        gather_pair_forces(nl.row_ptr, nl.col_ptr, nl.col_pair, self.f_pair, self.c_pair,
-                           st.radius, st.force, st.torque)
-
-    def compute_pair_only(self, sim: "Simulation") -> None:
-        """Refill the per-pair force buffers without touching particle forces or history.
-
-        Used after a checkpoint load so that :meth:`contacts` reports the saved step's
-        contacts; the history is evaluated on a copy so it does not advance.
-        """
-        st = sim.state
-        nl = sim.neighbors
-        g = sim.geometry
-        evaluate_pairs(self.law.evaluator, self.law.table, st.x, st.v, st.omega, st.radius,
-                       st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr, self.history.copy(),
-                       self.f_pair, self.c_pair, g.length, g.periodic, sim.dt, False)
+        evaluate_pairs(self.law.evaluator, self.law.table, self.law.reach(), st.x, st.v,
+                       st.omega, st.radius, st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr,
+                       self.history,
+                       self.fc_pair, self.active, g.length, g.periodic, sim.dt, update, st.force,
+                       st.torque)
+        gather_pair_forces(nl.col_ptr, nl.col_pair, self.fc_pair, self.active, st.radius,
+                           st.force, st.torque)
 
     def contacts(self, sim: "Simulation") -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                      np.ndarray]:
         """Interacting pairs now: indices i, j, force on i (M, 3), branch x_i - x_j (M, 3)."""
         nl = sim.neighbors
-        pi, pj, slot = active_pairs(nl.row_ptr, nl.nbr, self.f_pair)
+        pi, pj, slot = active_pairs(nl.row_ptr, nl.nbr, self.fc_pair, self.active)
         x = sim.state.x
         g = sim.geometry
         branch = x[pi] - x[pj]
         for a in np.nonzero(g.periodic)[0]:
             branch[:, a] -= g.length[a] * np.rint(branch[:, a] / g.length[a])
-        return pi, pj, self.f_pair[slot].copy(), branch
+        return pi, pj, self.fc_pair[slot, :3].copy(), branch
 
     def state_dict(self) -> dict[str, Any]:
-        return {"ptr": self._ptr.copy(), "nbr": self._nbr.copy(), "history": self.history.copy()}
+        return {"ptr": self._ptr.copy(), "nbr": self._nbr.copy(), "history": self.history.copy(),
+                "active": self.active.copy(), "fc_pair": self.fc_pair.copy()}
 
     def load_state_dict(self, data: dict[str, Any]) -> None:
         self._ptr = np.asarray(data["ptr"], dtype=np.int64)
         self._nbr = np.asarray(data["nbr"], dtype=np.int64)
         self.history = np.asarray(data["history"], dtype=np.float64).reshape(
             -1, self.law.history_size)
+        self.active = np.asarray(data["active"], dtype=np.uint8)
+        self.fc_pair = np.asarray(data["fc_pair"], dtype=np.float64).reshape(-1, 6)
 
     def nbytes(self) -> int:
-        return int(self.history.nbytes + self.f_pair.nbytes + self.c_pair.nbytes)
+        return int(self.history.nbytes + self.fc_pair.nbytes + self.active.nbytes)
 
 
 @njit(cache=True, parallel=True)

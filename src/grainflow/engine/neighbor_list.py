@@ -45,7 +45,7 @@ class NeighborList:
     ``col_pair`` (P,), ``builds`` (count).
     """
 
-    def __init__(self, skin: float, sort_every: int = 10) -> None:
+    def __init__(self, skin: float, sort_every: int = 1) -> None:
         if skin <= 0:
             raise ValueError("skin: must be positive (a fraction of the diameter, e.g. 0.1 d)")
         self.skin = float(skin)
@@ -57,6 +57,7 @@ class NeighborList:
         self.col_pair = np.zeros(0, dtype=np.int64)
         self._x_ref = np.zeros((0, 3))
         self._generation = -1
+        self._capacity = 16
 
     def needs_build(self, state: ParticleState, geom: ListGeometry) -> bool:
         """True if indices changed or some particle moved more than skin/2."""
@@ -135,9 +136,10 @@ class NeighborList:
         cell_of[order] = np.repeat(np.arange(starts.shape[0]), np.diff(cell_start))
         table = nk.cell_neighbor_table(np.ascontiguousarray(coords[order[starts]]), cell_keys,
                                        offsets, cmin, extent, geom.periodic, ncell)
-        self.row_ptr, self.nbr = nk.build_half_list(
+        self.row_ptr, self.nbr, self._capacity = nk.build_half_list(
             state.x, state.radius, state.frozen, state.body, cell_of, table, cell_start,
-            order.astype(np.int64), geom.length, geom.periodic, margin)
+            order.astype(np.int64), geom.length, geom.periodic, margin, self._capacity,
+            bool(np.all(order == np.arange(n))))
         self.col_ptr, self.col_pair = nk.transpose_index(self.row_ptr, self.nbr, state.n)
         self._x_ref = state.x.copy()
         self._generation = state.generation

@@ -86,7 +86,7 @@ class Simulation:
 
     def __init__(self, state: ParticleState, dt: float, law: ContactLaw | None = None, *,
                  skin: float | None = None, integrator: Integrator | None = None,
-                 sort_every: int = 10, check_every: int = 100,
+                 sort_every: int = 1, check_every: int = 100,
                  max_overlap_fraction: float = 0.5, seed: int | None = None) -> None:
         if not (dt > 0 and np.isfinite(dt)):
             raise ValueError(f"dt: {dt!r} is not valid; expected a positive time step")
@@ -366,19 +366,17 @@ class Simulation:
         nl._generation = st.generation
         if self.pair is not None:
             self.pair.load_state_dict(data["pair"])
-            self.pair.f_pair = np.zeros((nl.n_pairs, 3))
-            self.pair.c_pair = np.zeros((nl.n_pairs, 3))
+            if self.pair.active.shape[0] != nl.n_pairs:
+                raise ValueError("checkpoint: pair history does not match the neighbour list")
         for k, f in enumerate(self.forces):
             f.load_state_dict(data["forces"].get(str(k), {}))
         for k, u in enumerate(self.updaters):
             if hasattr(u.owner, "load_state_dict") and str(k) in data["updaters"]:
                 u.owner.load_state_dict(data["updaters"][str(k)])
         self.rng.bit_generator.state = data["rng"]
-        # Forces are part of the saved arrays; with them current the next step continues
+        # Forces and per-pair buffers are saved as they were: the next step continues
         # exactly where the saved run was.
         self.forces_current = bool(data["forces_current"])
-        if self.pair is not None and self.forces_current:
-            self.pair.compute_pair_only(self)
 
     def memory_bytes(self) -> dict[str, int]:
         """Bytes held by particle state, neighbour list and contact history."""

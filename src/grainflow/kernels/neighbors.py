@@ -53,20 +53,48 @@ def linear_keys(c, cmin, extent):
     return keys
 
 
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+
+
 @njit(cache=True)
-def _find(sorted_keys, key):
-    """Index of ``key`` in ``sorted_keys`` (binary search) or -1."""
-    lo = 0
-    hi = sorted_keys.shape[0]
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if sorted_keys[mid] < key:
-            lo = mid + 1
-        else:
-            hi = mid
-    if lo < sorted_keys.shape[0] and sorted_keys[lo] == key:
-        return lo
-    return -1
+def _slot(key, bits):
+    """Multiplicative (Fibonacci) hash of a cell key into ``bits`` bits."""
+    return np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(64 - bits))
+
+
+@njit(cache=True)
+def cell_hash(cell_keys):
+    """Open-addressing hash table of the occupied cells: slot -> cell index (-1 empty).
+
+    Its size is the next power of two above twice the number of occupied cells, so
+    memory stays proportional to the particles, never to the volume.
+    """
+    nc = cell_keys.shape[0]
+    bits = 4
+    while (1 << bits) < 2 * nc:
+        bits += 1
+    mask = (1 << bits) - 1
+    slots = np.full(1 << bits, -1, dtype=np.int64)
+    for c in range(nc):
+        h = _slot(cell_keys[c], bits)
+        while slots[h] != -1:
+            h = (h + 1) & mask
+        slots[h] = c
+    return slots, bits
+
+
+@njit(cache=True)
+def _lookup(slots, bits, cell_keys, key):
+    """Cell index of ``key`` or -1."""
+    mask = (1 << bits) - 1
+    h = _slot(key, bits)
+    while True:
+        c = slots[h]
+        if c == -1:
+            return -1
+        if cell_keys[c] == key:
+            return c
+        h = (h + 1) & mask
 
 
 @njit(cache=True, parallel=True)
@@ -76,6 +104,7 @@ def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic,
     ``cell_coords`` (C, 3) are the integer coordinates of the occupied cells; ``offsets``
     (Q, 3) the stencil (27 cells in 3D, 9 in 2D, fewer on short periodic axes).
     """
+    slots, bits = cell_hash(cell_keys)
     nc = cell_keys.shape[0]
     nq = offsets.shape[0]
     table = np.empty((nc, nq), dtype=np.int64)
@@ -86,19 +115,26 @@ def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic,
             for a in range(3):
                 ca = cell_coords[c, a] + offsets[q, a]
                 if periodic[a]:
-                    ca = ca % ncell[a]
+                    if ca < 0:
+                        ca += ncell[a]
+                    elif ca >= ncell[a]:
+                        ca -= ncell[a]
                 ca -= cmin[a]
                 if ca < 0 or ca >= extent[a]:
                     inside = False
                 key = key * extent[a] + ca
-            table[c, q] = _find(cell_keys, key) if inside else -1
+            table[c, q] = _lookup(slots, bits, cell_keys, key) if inside else -1
     return table
 
 
 @njit(cache=True)
 def _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order, box_len, periodic,
-          margin, out, offset, write):
-    """Count (and, if ``write``, store at ``out[offset:]``) the partners j > i of i."""
+          margin, out, offset, capacity, in_cell_order):
+    """Count the partners j > i of i, storing the first ``capacity`` at ``out[offset:]``.
+
+    With ``in_cell_order`` (particle indices sorted by cell), cells before i's own cell hold
+    only lower indices and are skipped.
+    """
     count = 0
     c = cell_of[i]
     xi0 = x[i, 0]
@@ -109,7 +145,7 @@ def _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order, box_len
     bi = body[i]
     for q in range(table.shape[1]):
         cj = table[c, q]
-        if cj < 0:
+        if cj < 0 or (in_cell_order and cj < c):
             continue
         for s in range(cell_start[cj], cell_start[cj + 1]):
             j = order[s]
@@ -124,7 +160,7 @@ def _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order, box_len
             d2 = minimum_image(xi2 - x[j, 2], box_len[2], periodic[2])
             cut = ri + radius[j]
             if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
-                if write:
+                if count < capacity:
                     out[offset + count] = j
                 count += 1
     return count
@@ -142,27 +178,58 @@ def _insertion_sort(a, lo, hi):
 
 
 @njit(cache=True, parallel=True)
+def _fill_rows(x, radius, frozen, body, cell_of, table, cell_start, order, box_len, periodic,
+               margin, capacity, scratch, counts, in_cell_order):
+    """Scan every particle once into a fixed-capacity scratch row; report overflow."""
+    n = x.shape[0]
+    overflow = 0
+    for i in prange(n):
+        c = _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order, box_len,
+                  periodic, margin, scratch, i * capacity, capacity, in_cell_order)
+        counts[i + 1] = c
+        if c > capacity:
+            overflow += 1
+    return overflow
+
+
+@njit(cache=True, parallel=True)
+def _compact_rows(scratch, capacity, row_ptr, nbr):
+    n = row_ptr.shape[0] - 1
+    for i in prange(n):
+        base = i * capacity
+        start = row_ptr[i]
+        m = row_ptr[i + 1] - start
+        for q in range(m):
+            nbr[start + q] = scratch[base + q]
+        _insertion_sort(nbr, start, start + m)
+
+
 def build_half_list(x, radius, frozen, body, cell_of, table, cell_start, order, box_len,
-                    periodic, margin):
-    """Half Verlet list (row_ptr, nbr) with rows sorted ascending.
+                    periodic, margin, capacity=16, in_cell_order=False):
+    """Half Verlet list (row_ptr, nbr) with rows sorted ascending; and the row capacity used.
 
     ``cell_of[i]`` is the occupied-cell index of particle i, ``table`` the cell stencil from
     :func:`cell_neighbor_table`, ``order`` the particles sorted by cell and ``cell_start``
     the start of each cell in ``order``. ``margin`` = interaction reach + skin. Pairs of two
-    frozen particles and pairs within one body are left out.
+    frozen particles and pairs within one body are left out. ``in_cell_order``: the
+    particles are indexed in cell order (just re-sorted), which halves the scan. Each particle is scanned once
+    into a scratch row of ``capacity`` slots; rows that overflow trigger one re-scan with
+    the capacity the overflow showed was needed (reported, never silently truncated).
     """
     n = x.shape[0]
-    counts = np.zeros(n + 1, dtype=np.int64)
-    for i in prange(n):
-        counts[i + 1] = _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order,
-                              box_len, periodic, margin, counts, 0, False)
+    while True:
+        counts = np.zeros(n + 1, dtype=np.int64)
+        scratch = np.empty(max(n * capacity, 1), dtype=np.int64)
+        overflow = _fill_rows(x, radius, frozen, body, cell_of, table, cell_start, order,
+                              box_len, periodic, margin, capacity, scratch, counts,
+                              in_cell_order)
+        if overflow == 0:
+            break
+        capacity = int(counts.max()) + 4
     row_ptr = np.cumsum(counts)
     nbr = np.empty(row_ptr[n], dtype=np.int64)
-    for i in prange(n):
-        _scan(i, x, radius, frozen, body, cell_of, table, cell_start, order, box_len, periodic,
-              margin, nbr, row_ptr[i], True)
-        _insertion_sort(nbr, row_ptr[i], row_ptr[i + 1])
-    return row_ptr, nbr
+    _compact_rows(scratch, capacity, row_ptr, nbr)
+    return row_ptr, nbr, capacity
 
 
 @njit(cache=True)

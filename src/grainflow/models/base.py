@@ -75,7 +75,11 @@ class ContactLaw(ABC):
         """Validate user parameters and build one table row."""
 
     def reach(self) -> float:
-        """How far beyond touching (surface gap) the law acts; 0 for pure contact laws."""
+        """How far beyond touching (surface gap) the law acts; 0 for pure contact laws.
+
+        Contract with the pair loop: beyond ``r_i + r_j + reach`` the law exerts no force and
+        its history for the pair is zero (the loop does not call the evaluator there).
+        """
         return 0.0
 
     @abstractmethod
