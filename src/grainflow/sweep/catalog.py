@@ -130,6 +130,14 @@ class Catalog:
             )
             return self._count() - before
 
+    def requeue(self, point_ids: Iterable[str]) -> None:
+        """Set the given points back to ``pending`` unless they are ``done``."""
+        with self._transaction():
+            self._conn.executemany(
+                "UPDATE points SET status = 'pending' WHERE point_id = ? AND status != 'done'",
+                ((pid,) for pid in point_ids),
+            )
+
     def reset_running(self) -> int:
         """Put ``running`` points back to ``pending`` (after an interrupted sweep)."""
         with self._transaction():

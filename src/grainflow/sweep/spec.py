@@ -31,6 +31,7 @@ import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from collections.abc import Iterable
 from typing import Any, Literal
 
 import numpy as np
@@ -118,7 +119,7 @@ class SweepSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    name: str = Field(min_length=1)
+    name: str = Field(default="sweep", min_length=1)
     base: dict[str, Any]
     mode: Literal["grid", "zip"] = "grid"
     overrides: dict[str, Axis] = Field(default_factory=dict)
@@ -171,6 +172,7 @@ class SweepSpec(BaseModel):
                     f"mode = \"zip\" needs every override to have the same number of values; "
                     f"got {lengths}. Make the lists equally long or use mode = \"grid\""
                 )
+        self.points()  # rejects repeated points
         return self
 
     def seed_values(self) -> list[int]:
@@ -183,12 +185,17 @@ class SweepSpec(BaseModel):
         """Expand the sweep into its points (override combinations x seeds), in file order."""
         paths = list(self.overrides)
         columns = [self.overrides[p].resolve() for p in paths]
-        combos = itertools.product(*columns) if self.mode == "grid" else zip(*columns)
+        if not columns:
+            combos: Iterable[tuple[Any, ...]] = [()]
+        elif self.mode == "grid":
+            combos = itertools.product(*columns)
+        else:
+            combos = zip(*columns)
         points: list[Point] = []
         seen: dict[str, int] = {}
         for values in combos:
-            for replicate, seed in enumerate(self.seed_values()):
-                point = Point(dict(zip(paths, values)), self.seed_field, seed, replicate)
+            for seed in self.seed_values():
+                point = Point(dict(zip(paths, values)), self.seed_field, seed)
                 if point.point_id in seen:
                     raise SweepFileError(
                         f"points {seen[point.point_id]} and {len(points)} are identical "
@@ -206,7 +213,6 @@ class Point:
     overrides: dict[str, Any]
     seed_field: str
     seed: int
-    replicate: int
 
     @property
     def point_id(self) -> str:

@@ -1,0 +1,544 @@
+"""Running a sweep on dask.distributed.
+
+Each point is one task: :func:`run_point` calls the point runner (an ordinary
+simulation writing its own run directory), then the analysis functions, and
+returns a small record. The driving process (:func:`run_sweep`) is the only
+one that writes the catalog; workers only need a shared filesystem for the
+run directories.
+
+Where tasks run:
+
+* default: a :class:`~distributed.LocalCluster` on this machine, bound to
+  127.0.0.1, one single-threaded worker process per core, with numba/OpenMP/BLAS
+  limited to one thread per worker so that workers do not oversubscribe cores;
+* ``scheduler="tcp://host:port"``: an existing cluster (dask-jobqueue, ``dask
+  scheduler`` + ``dask worker``...); see ``docs/sweeps.md``.
+
+A worker that dies (segfault, out of memory, node lost) has its task
+rescheduled on another worker by the scheduler, up to the dask setting
+``distributed.scheduler.allowed-failures`` (default 3); after that the point is
+recorded as failed with ``KilledWorker`` and will be retried by the next sweep
+invocation.
+"""
+
+from __future__ import annotations
+
+import copy
+import fcntl
+import importlib
+import json
+import os
+import queue
+import shutil
+import signal
+import threading
+import time
+import traceback
+import uuid
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+from distributed import Client, Future, LocalCluster, as_completed, get_worker
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from grainflow.sweep.catalog import Catalog, now
+from grainflow.sweep.spec import Point, SweepSpec
+
+#: Environment of LocalCluster workers: one compute thread each.
+WORKER_ENV = {
+    "NUMBA_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+}
+POINT_FILE = "sweep_point.json"  # written into a run directory once its runner succeeded
+LOCK_FILE = ".sweep.lock"
+SWEEP_RECORD = "sweep.toml"
+_POLL_SECONDS = 0.2
+PROGRESS_MODES = ("auto", "rich", "plain")
+
+
+class SweepError(RuntimeError):
+    """A sweep cannot start (busy directory, unreachable scheduler, unknown runner...)."""
+
+
+# ---------------------------------------------------------------------------------------
+# What runs on a worker
+
+
+@dataclass(frozen=True)
+class PointTask:
+    """Everything a worker needs to run one point (sent to the worker by pickling)."""
+
+    point_id: str
+    params: dict[str, Any]
+    config: dict[str, Any]
+    rundir: str
+    runner: str
+    analyses: tuple[str, ...]
+    topic: str
+
+
+def resolve_callable(ref: str) -> Callable[..., Any]:
+    """Import ``"package.module:function"`` and return the function."""
+    module_name, _, attr = ref.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise SweepError(f"cannot import {module_name!r} (from {ref!r}): {exc}") from None
+    try:
+        func = getattr(module, attr)
+    except AttributeError:
+        raise SweepError(f"module {module_name!r} has no function {attr!r} (from {ref!r})") from None
+    if not callable(func):
+        raise SweepError(f"{ref!r} is not callable")
+    return func
+
+
+def run_point(task: PointTask) -> dict[str, Any]:
+    """Run one point on a worker: runner, then analyses. Never raises for a failing point.
+
+    If a previous attempt's runner already completed (its ``sweep_point.json`` is
+    present), the simulation is not repeated and only the analyses run again.
+    Otherwise a stale run directory left by an interrupted attempt is removed first.
+    """
+    started = time.perf_counter()
+    worker = _announce_start(task)
+    rundir = Path(task.rundir)
+    try:
+        if not _run_completed(rundir, task.point_id):
+            if rundir.exists():
+                shutil.rmtree(rundir)
+            resolve_callable(task.runner)(copy.deepcopy(task.config), rundir)
+            _write_point_file(rundir, task, time.perf_counter() - started)
+        summary = run_analyses(rundir, task.analyses)
+        status, error = "done", None
+    except Exception:  # the point failed; the record carries the traceback
+        status, summary, error = "failed", {}, traceback.format_exc()
+    return {
+        "point_id": task.point_id,
+        "status": status,
+        "summary": summary,
+        "error": error,
+        "wall_time": time.perf_counter() - started,
+        "worker": worker,
+    }
+
+
+def run_analyses(rundir: Path, analyses: tuple[str, ...] | list[str]) -> dict[str, float]:
+    """Call each ``f(rundir) -> {name: number}`` and merge the results."""
+    summary: dict[str, float] = {}
+    source: dict[str, str] = {}
+    for ref in analyses:
+        result = resolve_callable(ref)(rundir)
+        if not isinstance(result, Mapping):
+            raise TypeError(f"analysis {ref} returned {type(result).__name__}, not a dict")
+        for key, value in result.items():
+            if key in summary:
+                raise ValueError(f"analyses {source[key]} and {ref} both return {key!r}")
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError(f"analysis {ref} returned {key}={value!r}; values must be numbers")
+            summary[str(key)], source[key] = float(value), ref
+    return summary
+
+
+def _announce_start(task: PointTask) -> str:
+    """Tell the driving process that this point started; returns the worker address.
+
+    The report travels on the worker's batched stream to the scheduler (a few
+    milliseconds); a worker that dies within that time takes it along, and the
+    attempt is not counted.
+    """
+    try:
+        worker = get_worker()
+    except ValueError:  # called outside a dask worker (e.g. directly in a test)
+        return ""
+    worker.log_event(task.topic, {"point_id": task.point_id, "worker": worker.address, "at": now()})
+    return worker.address
+
+
+def _run_completed(rundir: Path, point_id: str) -> bool:
+    try:
+        return json.loads((rundir / POINT_FILE).read_text())["point_id"] == point_id
+    except (OSError, ValueError, KeyError):
+        return False
+
+
+def _write_point_file(rundir: Path, task: PointTask, run_wall_time: float) -> None:
+    record = {"point_id": task.point_id, "params": task.params, "run_wall_time": run_wall_time}
+    rundir.mkdir(parents=True, exist_ok=True)
+    (rundir / POINT_FILE).write_text(json.dumps(record, indent=2) + "\n")
+
+
+# ---------------------------------------------------------------------------------------
+# The driving process
+
+
+@dataclass
+class SweepResult:
+    """Outcome of :func:`run_sweep` for the points of this sweep."""
+
+    sweepdir: Path
+    total: int
+    skipped: int  # already done before this invocation
+    counts: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """True when every point of the sweep is done."""
+        return self.counts.get("done", 0) == self.total
+
+
+def run_sweep(
+    spec: SweepSpec,
+    sweepdir: str | Path,
+    *,
+    scheduler: str | None = None,
+    n_workers: int | None = None,
+    progress: str = "auto",
+    progress_interval: float = 30.0,
+    console: Console | None = None,
+) -> SweepResult:
+    """Run every point of ``spec`` not yet done in ``sweepdir`` and record it in the catalog.
+
+    Parameters
+    ----------
+    spec : the validated sweep (:func:`grainflow.sweep.load_sweep`).
+    sweepdir : sweep directory; holds ``catalog.sqlite``, ``sweep.toml`` and ``runs/<point_id>/``.
+    scheduler : address of an existing dask scheduler; ``None`` starts a LocalCluster.
+    n_workers : LocalCluster size (default: one worker per core); ignored with ``scheduler``.
+    progress : ``"rich"`` (progress bar), ``"plain"`` (a status line every
+        ``progress_interval`` seconds) or ``"auto"`` (rich on a terminal).
+
+    Ctrl-C (or SIGTERM) stops the sweep: running points go back to ``pending``,
+    the cluster is closed and KeyboardInterrupt is re-raised. Running the same
+    sweep again continues where it stopped.
+    """
+    if progress not in PROGRESS_MODES:
+        raise ValueError(f"progress must be one of {PROGRESS_MODES}, not {progress!r}")
+    console = console or Console(highlight=False)
+    sweepdir = Path(sweepdir).resolve()
+    points = spec.points()
+    resolve_callable(spec.runner)
+    for ref in spec.analyses:
+        resolve_callable(ref)
+    sweepdir.mkdir(parents=True, exist_ok=True)
+    with _exclusive(sweepdir), Catalog.in_dir(sweepdir) as catalog:
+        _record_sweep(spec, sweepdir, catalog, console)
+        catalog.register(points)
+        catalog.reset_running()
+        statuses = catalog.statuses()
+        todo = [p for p in points if statuses[p.point_id] != "done"]
+        catalog.requeue(p.point_id for p in todo)
+        result = SweepResult(sweepdir, len(points), len(points) - len(todo))
+        console.out(
+            f"sweep {spec.name!r}: {len(points)} points, {result.skipped} already done, "
+            f"{len(todo)} to run; catalog {catalog.path}"
+        )
+        if todo:
+            ids = [p.point_id for p in points]
+            reporter = _make_reporter(progress, console, len(points), progress_interval)
+            with _sigterm_as_interrupt(), open_client(scheduler, n_workers, console) as client:
+                _drive(client, catalog, _tasks(spec, todo, sweepdir), ids, reporter)
+        result.counts = catalog.counts(p.point_id for p in points)
+    console.out(
+        f"sweep {spec.name!r}: {result.counts['done']} done, {result.counts['failed']} failed "
+        f"of {result.total}"
+    )
+    return result
+
+
+def _tasks(spec: SweepSpec, points: list[Point], sweepdir: Path) -> list[PointTask]:
+    topic = f"grainflow-sweep-{uuid.uuid4().hex}"
+    return [
+        PointTask(
+            point_id=p.point_id,
+            params={**p.overrides, p.seed_field: p.seed},
+            config=p.config(spec.base),
+            rundir=str(sweepdir / "runs" / p.point_id),
+            runner=spec.runner,
+            analyses=tuple(spec.analyses),
+            topic=topic,
+        )
+        for p in points
+    ]
+
+
+@contextmanager
+def open_client(
+    scheduler: str | None, n_workers: int | None, console: Console
+) -> Iterator[Client]:
+    """A client on ``scheduler``, or on a fresh LocalCluster closed on exit."""
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, ValueError) as exc:
+            raise SweepError(f"cannot reach the dask scheduler at {scheduler}: {exc}") from None
+        with client:
+            console.out(f"using the dask cluster at {scheduler}")
+            yield client
+        return
+    n_workers = n_workers or os.cpu_count() or 1
+    with LocalCluster(
+        n_workers=n_workers,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        env=WORKER_ENV,
+    ) as cluster, Client(cluster) as client:
+        console.out(f"started a local cluster: {n_workers} single-threaded workers")
+        yield client
+
+
+def _drive(
+    client: Client,
+    catalog: Catalog,
+    tasks: list[PointTask],
+    sweep_ids: list[str],
+    reporter: _Reporter,
+) -> None:
+    """Submit the tasks and record starts and results in the catalog until all finish."""
+    started: queue.SimpleQueue[tuple[float, dict[str, str]]] = queue.SimpleQueue()
+    client.subscribe_topic(tasks[0].topic, started.put)
+    futures = {
+        client.submit(run_point, t, key=f"point-{t.point_id}-{uuid.uuid4().hex[:8]}", pure=False): t
+        for t in tasks
+    }
+    unfinished = as_completed(futures)
+    reporter.start(catalog.counts(sweep_ids))
+    try:
+        while not unfinished.is_empty():
+            for future in unfinished.next_batch(block=False):
+                if _record_result(catalog, future, futures[future], reporter):
+                    del futures[future]
+                else:
+                    unfinished.add(future)
+            _record_starts(catalog, started)
+            reporter.update(catalog.counts(sweep_ids))
+            time.sleep(_POLL_SECONDS)
+        time.sleep(_POLL_SECONDS)  # start reports travel separately from results
+        _record_starts(catalog, started)
+    except KeyboardInterrupt:
+        client.cancel(list(futures))
+        returned = catalog.reset_running()
+        reporter.message(
+            f"interrupted: {returned} running point(s) set back to pending; "
+            "run the same command again to continue"
+        )
+        raise
+    finally:
+        reporter.stop(catalog.counts(sweep_ids))
+        client.unsubscribe_topic(tasks[0].topic)
+
+
+def _record_starts(
+    catalog: Catalog, started: queue.SimpleQueue[tuple[float, dict[str, str]]]
+) -> None:
+    while not started.empty():
+        _, msg = started.get()
+        catalog.mark_started(msg["point_id"], msg["worker"], msg["at"])
+
+
+def _record_result(catalog: Catalog, future: Future, task: PointTask, reporter: _Reporter) -> bool:
+    """Store a finished task; returns False if its result was lost and is being recomputed.
+
+    A task that never returned (its worker died too often, or it was cancelled)
+    is recorded as failed.
+    """
+    if future.status == "finished":
+        try:
+            record = future.result(timeout=60)
+        except Exception:  # the worker holding the result died meanwhile; wait again
+            return False
+        catalog.mark_finished(
+            task.point_id,
+            record["status"],
+            summary=record["summary"],
+            wall_time=record["wall_time"],
+            error=record["error"],
+            worker=record["worker"],
+        )
+        error = record["error"]
+    elif future.status in ("error", "cancelled"):
+        exc = future.exception() if future.status == "error" else None
+        error = f"{type(exc).__name__}: {exc}" if exc else "task cancelled"
+        catalog.mark_finished(task.point_id, "failed", error=error)
+    else:  # "lost": the worker holding the result died; the scheduler recomputes it
+        return False
+    future.release()
+    if error:
+        last_line = error.strip().splitlines()[-1]
+        reporter.message(f"point {task.point_id} ({_label(task.params)}) failed: {last_line}")
+    return True
+
+
+def _label(params: dict[str, Any]) -> str:
+    return " ".join(f"{k}={v!r}" for k, v in params.items())
+
+
+@contextmanager
+def _exclusive(sweepdir: Path) -> Iterator[None]:
+    """Hold a lock on the sweep directory so two sweeps cannot drive it at once."""
+    with open(sweepdir / LOCK_FILE, "w") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise SweepError(
+                f"another 'grainflow sweep' is running in {sweepdir}; wait for it or stop it"
+            ) from None
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def _record_sweep(spec: SweepSpec, sweepdir: Path, catalog: Catalog, console: Console) -> None:
+    """Save the resolved sweep file; warn if the base config changed since the last run."""
+    record = spec.model_dump(mode="json", exclude_none=True)
+    (sweepdir / SWEEP_RECORD).write_text(tomli_w.dumps(record))
+    base = json.dumps(spec.base, sort_keys=True, default=str)
+    previous = catalog.get_meta("base_config")
+    if previous is not None and previous != base:
+        console.out(
+            "warning: the base config differs from the one this sweep directory was run with; "
+            "points already done keep their old results (use a new sweep directory to redo them)"
+        )
+    catalog.set_meta("base_config", base)
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """Treat SIGTERM (e.g. a batch system's time limit) like Ctrl-C while the sweep runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+# ---------------------------------------------------------------------------------------
+# Progress
+
+
+class _Reporter:
+    """Tracks progress of the whole sweep and estimates the time left."""
+
+    def __init__(self, console: Console, total: int) -> None:
+        self.console = console
+        self.total = total
+        self._t0 = time.monotonic()
+        self._finished_before = 0
+
+    def start(self, counts: dict[str, int]) -> None:
+        """Begin timing; ``counts`` are the statuses before any point of this run finished."""
+        self._t0 = time.monotonic()
+        self._finished_before = counts["done"] + counts["failed"]
+
+    def message(self, text: str) -> None:
+        self.console.out(text)
+
+    def update(self, counts: dict[str, int]) -> None:
+        raise NotImplementedError
+
+    def stop(self, counts: dict[str, int]) -> None:
+        raise NotImplementedError
+
+    def status_line(self, counts: dict[str, int]) -> str:
+        """'D/N done, F failed, R running, P pending; elapsed h:mm:ss, ETA h:mm:ss'."""
+        return (
+            f"{counts['done']}/{self.total} done, {self.activity(counts)}, "
+            f"{counts['pending']} pending; elapsed {_hms(time.monotonic() - self._t0)}, "
+            f"ETA {self.eta_text(counts)}"
+        )
+
+    def activity(self, counts: dict[str, int]) -> str:
+        return f"{counts['failed']} failed, {counts['running']} running"
+
+    def eta_text(self, counts: dict[str, int]) -> str:
+        eta = self._eta(counts)
+        return _hms(eta) if eta is not None else "?"
+
+    def _eta(self, counts: dict[str, int]) -> float | None:
+        """Remaining points times the mean time per point finished in this invocation."""
+        finished = counts["done"] + counts["failed"]
+        finished_now = finished - self._finished_before
+        if finished_now <= 0:
+            return None
+        return (self.total - finished) * (time.monotonic() - self._t0) / finished_now
+
+
+class _PlainReporter(_Reporter):
+    """A status line every ``interval`` seconds (for logs and batch jobs)."""
+
+    def __init__(self, console: Console, total: int, interval: float) -> None:
+        super().__init__(console, total)
+        self.interval = interval
+        self._last = -float("inf")
+
+    def update(self, counts: dict[str, int]) -> None:
+        if time.monotonic() - self._last >= self.interval:
+            self.console.out(self.status_line(counts))
+            self._last = time.monotonic()
+
+    def stop(self, counts: dict[str, int]) -> None:
+        self.console.out(self.status_line(counts))
+
+
+class _RichReporter(_Reporter):
+    """A live progress bar (for terminals)."""
+
+    def __init__(self, console: Console, total: int) -> None:
+        super().__init__(console, total)
+        self._progress = Progress(
+            TextColumn("sweep"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.description}"),
+            TimeElapsedColumn(),
+            console=console,
+        )
+        self._task = self._progress.add_task("", total=total)
+
+    def start(self, counts: dict[str, int]) -> None:
+        super().start(counts)
+        self._progress.start()
+        self.update(counts)
+
+    def message(self, text: str) -> None:
+        self._progress.console.out(text)
+
+    def update(self, counts: dict[str, int]) -> None:
+        self._progress.update(
+            self._task,
+            completed=counts["done"] + counts["failed"],
+            description=f"{self.activity(counts)}, ETA {self.eta_text(counts)}",
+        )
+
+    def stop(self, counts: dict[str, int]) -> None:
+        self.update(counts)
+        self._progress.stop()
+
+
+def _make_reporter(mode: str, console: Console, total: int, interval: float) -> _Reporter:
+    if mode == "rich" or (mode == "auto" and console.is_terminal):
+        return _RichReporter(console, total)
+    return _PlainReporter(console, total, interval)
+
+
+def _hms(seconds: float) -> str:
+    seconds = int(round(seconds))
+    hours, rest = divmod(seconds, 3600)
+    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}"

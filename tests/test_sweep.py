@@ -1,0 +1,445 @@
+"""Tests of the parameter-sweep subsystem (grainflow.sweep).
+
+The execution tests share one 2-worker LocalCluster (passed as an existing
+scheduler); one test drives the CLI in a subprocess, which starts its own
+LocalCluster, and interrupts it with SIGINT.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import psutil
+import pytest
+import tomli_w
+from rich.console import Console
+from typer.testing import CliRunner
+
+import sweep_helpers as helpers
+from grainflow.sweep import (
+    Catalog,
+    SweepFileError,
+    export_csv,
+    load_sweep,
+    parse_sweep,
+    run_point,
+    run_sweep,
+)
+from grainflow.sweep.cli import sweep_app
+from grainflow.sweep.execute import PointTask, SweepError, _exclusive
+
+TESTS_DIR = Path(__file__).parent
+
+
+def make_spec(tmp_path: Path, *, runner: str = "sleep_runner", test: dict | None = None, **fields):
+    """A 2 (a) x 2 (b) grid with 2 replicates = 8 points, using the helper runners."""
+    data = {
+        "name": "tiny",
+        "base": helpers.base_config(tmp_path, **(test or {})),
+        "overrides": {"p.a": [1, 2], "p.b": {"start": 1, "stop": 2, "num": 2}},
+        "replicates": 2,
+        "runner": f"sweep_helpers:{runner}",
+        "analyses": ["sweep_helpers:product"],
+        **fields,
+    }
+    if "seeds" in fields and "replicates" not in fields:
+        del data["replicates"]
+    return parse_sweep(data)
+
+
+def quiet() -> Console:
+    return Console(file=io.StringIO(), highlight=False)
+
+
+def rows_by_params(sweepdir: Path) -> dict[tuple, object]:
+    with Catalog.in_dir(sweepdir) as catalog:
+        return {(r.params["p.a"], r.params["p.b"], r.seed): r for r in catalog.rows()}
+
+
+@pytest.fixture(scope="module")
+def scheduler():
+    """Address of a 2-worker LocalCluster, shared by the execution tests."""
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None,
+    ) as cluster:
+        yield cluster.scheduler_address
+
+
+# ---------------------------------------------------------------------------------------
+# Sweep files
+
+
+def test_grid_expands_to_product_of_values_and_seeds(tmp_path):
+    spec = make_spec(tmp_path, seed_start=5)
+    points = spec.points()
+    combos = {(p.overrides["p.a"], p.overrides["p.b"], p.seed) for p in points}
+    assert combos == {(a, b, s) for a in (1, 2) for b in (1.0, 2.0) for s in (5, 6)}
+    config = points[-1].config(spec.base)
+    assert config["p"] == {"a": 2, "b": 2.0} and config["run"]["seed"] == 6
+    assert spec.base["p"] == {"a": 1.0, "b": 1.0}, "expanding must not modify the base config"
+
+
+def test_zip_mode_pairs_values_and_ranges_resolve(tmp_path):
+    spec = make_spec(
+        tmp_path,
+        mode="zip",
+        replicates=1,
+        overrides={"p.a": [1, 2, 3, 4], "p.b": {"start": 0.01, "stop": 10, "num": 4, "scale": "log"}},
+    )
+    pairs = [(p.overrides["p.a"], p.overrides["p.b"]) for p in spec.points()]
+    assert pairs == [(1, 0.01), (2, 0.1), (3, 1.0), (4, 10.0)]
+
+
+def test_explicit_seeds(tmp_path):
+    spec = make_spec(tmp_path, seeds=[11, 3], overrides={"p.a": [1]})
+    assert [p.seed for p in spec.points()] == [11, 3]
+
+
+def test_point_ids_do_not_depend_on_listing_order(tmp_path):
+    forward = make_spec(tmp_path, overrides={"p.a": [1, 2], "p.b": [1.0, 2.0]})
+    backward = make_spec(tmp_path, overrides={"p.b": [2, 1], "p.a": [2.0, 1.0]})
+    ids = {p.point_id for p in forward.points()}
+    assert len(ids) == 8
+    assert ids == {p.point_id for p in backward.points()}
+    other_seeds = make_spec(tmp_path, overrides={"p.a": [1, 2], "p.b": [1.0, 2.0]}, seed_start=2)
+    assert ids.isdisjoint(p.point_id for p in other_seeds.points())
+
+
+def test_base_file_is_resolved_relative_to_sweep_file(tmp_path):
+    (tmp_path / "conf").mkdir()
+    (tmp_path / "conf" / "base.toml").write_text(tomli_w.dumps(helpers.base_config(tmp_path)))
+    sweep_file = tmp_path / "conf" / "my_sweep.toml"
+    sweep_file.write_text('base = "base.toml"\n[overrides]\n"p.a" = {start = 3, stop = 10, num = 8}\n')
+    spec = load_sweep(sweep_file)
+    assert spec.name == "my_sweep"
+    assert [p.overrides["p.a"] for p in spec.points()] == [3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0]
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        ({"mode": "product"}, ["field mode", "'product'", "'grid' or 'zip'"]),
+        ({"replicate": 3}, ["field replicate", "unknown field", "replicates"]),
+        ({"overrides": {"p.a": {"start": 1, "stop": 2}}}, ['overrides."p.a"', "missing ['num']"]),
+        ({"overrides": {"p.a": {"start": 1, "stop": 2, "nun": 3}}}, ['overrides."p.a".nun', "num"]),
+        ({"overrides": {"p.a": 5}}, ['overrides."p.a"', "(got 5)", "list of values"]),
+        ({"overrides": {"p.c": [1]}}, ["'p.c'", "not a field of the base config", "['a', 'b']"]),
+        ({"overrides": {"p.a": {"start": 0, "stop": 1, "num": 3, "scale": "log"}}}, ["start > 0"]),
+        ({"mode": "zip", "overrides": {"p.a": [1, 2], "p.b": [1]}}, ["same number", "'p.b': 1"]),
+        ({"runner": "sweep_helpers.sleep_runner"}, ["field runner", "'package.module:function'"]),
+        ({"seeds": [1, 2], "replicates": 2}, ["either 'seeds' or 'replicates'"]),
+        ({"replicates": 0}, ["field replicates", "(got 0)", "greater than or equal to 1"]),
+    ],
+)
+def test_bad_sweep_files_name_field_value_and_fix(tmp_path, change, expected):
+    with pytest.raises(SweepFileError) as info:
+        make_spec(tmp_path, **change)
+    for text in expected:
+        assert text in str(info.value)
+
+
+def test_missing_base_file_is_reported(tmp_path):
+    sweep_file = tmp_path / "s.toml"
+    sweep_file.write_text('base = "nope.toml"\n')
+    with pytest.raises(SweepFileError, match="field 'base'.*nope.toml.*not found"):
+        load_sweep(sweep_file)
+
+
+def test_repeated_point_is_an_error(tmp_path):
+    with pytest.raises(SweepFileError, match="identical.*p.a=1.0"):
+        make_spec(tmp_path, overrides={"p.a": [1, 1.0]})
+
+
+@pytest.mark.parametrize("mode", ["grid", "zip"])
+def test_sweep_without_overrides_is_just_replicates(tmp_path, mode):
+    spec = make_spec(tmp_path, mode=mode, overrides={}, replicates=3)
+    assert [(p.overrides, p.seed) for p in spec.points()] == [({}, 0), ({}, 1), ({}, 2)]
+
+
+# ---------------------------------------------------------------------------------------
+# Catalog
+
+
+def test_catalog_status_lifecycle_and_csv(tmp_path):
+    points = make_spec(tmp_path).points()
+    with Catalog.in_dir(tmp_path) as catalog:
+        assert catalog._conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+        assert catalog.register(points) == 8
+        assert catalog.register(points[:3]) == 0
+        first, second = points[0].point_id, points[1].point_id
+        catalog.mark_started(first, "w1", "t0")
+        catalog.mark_started(second, "w2", "t0")
+        catalog.mark_finished(first, "done", summary={"x": 1.5}, wall_time=2.0)
+        assert catalog.counts() == {"pending": 6, "running": 1, "done": 1, "failed": 0}
+        assert catalog.reset_running() == 1
+        catalog.mark_finished(second, "failed", error="boom")
+        catalog.requeue([first, second])
+        assert catalog.statuses()[first] == "done" and catalog.statuses()[second] == "pending"
+        with pytest.raises(ValueError):
+            catalog.mark_finished(first, "running")
+        rows = catalog.rows()
+    stream = io.StringIO()
+    export_csv(rows, stream)
+    table = list(csv.DictReader(io.StringIO(stream.getvalue())))
+    assert len(table) == 8
+    assert table[0]["x"] == "1.5" and table[0]["status"] == "done" and table[0]["attempts"] == "1"
+    assert table[1]["error"] == "boom" and table[1]["x"] == ""
+    assert {"p.a", "p.b", "run.seed", "wall_time", "rundir"} <= set(table[0])
+
+
+# ---------------------------------------------------------------------------------------
+# One point without a cluster
+
+
+def test_run_point_records_summary_or_traceback(tmp_path):
+    def task(a: float, runner: str) -> PointTask:
+        config = helpers.base_config(tmp_path, fail_a=2)
+        config["p"]["a"] = a
+        return PointTask(
+            point_id=f"id{a}", params={"p.a": a}, config=config,
+            rundir=str(tmp_path / f"run{a}"), runner=f"sweep_helpers:{runner}",
+            analyses=("sweep_helpers:product", "sweep_helpers:total"), topic="unused",
+        )
+
+    ok = run_point(task(3, "failing_runner"))
+    assert ok["status"] == "done" and ok["error"] is None
+    assert ok["summary"] == {"ab_plus_seed": 3.0, "a_plus_b": 4.0}
+    bad = run_point(task(2, "failing_runner"))
+    assert bad["status"] == "failed" and "deliberate failure at a=2" in bad["error"]
+    assert "Traceback" in bad["error"]
+
+
+# ---------------------------------------------------------------------------------------
+# Sweeps on a cluster
+
+
+def test_sweep_finishes_all_points_and_rerun_recomputes_nothing(tmp_path, scheduler):
+    sweepdir = tmp_path / "sweep"
+    result = run_sweep(make_spec(tmp_path), sweepdir, scheduler=scheduler, console=quiet())
+    assert result.ok and result.counts["done"] == 8 and result.skipped == 0
+    rows = rows_by_params(sweepdir)
+    assert len(rows) == 8
+    for (a, b, seed), row in rows.items():
+        assert row.status == "done" and row.error is None
+        assert row.summary == {"ab_plus_seed": a * b + seed}
+        assert row.wall_time > 0 and row.attempts == 1 and row.worker.startswith("tcp://")
+        assert (sweepdir / row.rundir / helpers.RESULT_FILE).is_file()
+    assert len(helpers.runner_calls(tmp_path)) == 8
+    recorded = load_sweep(sweepdir / "sweep.toml")
+    assert {p.point_id for p in recorded.points()} == {r.point_id for r in rows.values()}
+
+    reordered = make_spec(tmp_path, overrides={"p.b": [2, 1], "p.a": [2.0, 1.0]})
+    again = run_sweep(reordered, sweepdir, scheduler=scheduler, console=quiet())
+    assert again.ok and again.skipped == 8
+    assert len(helpers.runner_calls(tmp_path)) == 8, "a second invocation must not rerun points"
+
+
+def test_failing_point_is_recorded_while_others_finish(tmp_path, scheduler):
+    sweepdir = tmp_path / "sweep"
+    spec = make_spec(tmp_path, runner="failing_runner", test={"fail_a": 2})
+    output = quiet()
+    result = run_sweep(spec, sweepdir, scheduler=scheduler, console=output)
+    assert not result.ok and result.counts == {"pending": 0, "running": 0, "done": 4, "failed": 4}
+    for (a, _, _), row in rows_by_params(sweepdir).items():
+        if a == 2:
+            assert row.status == "failed" and "RuntimeError: deliberate failure at a=2" in row.error
+            assert row.summary == {}
+        else:
+            assert row.status == "done" and row.error is None
+    assert "failed: RuntimeError: deliberate failure at a=2" in output.file.getvalue()
+
+    rerun = run_sweep(spec, sweepdir, scheduler=scheduler, console=quiet())
+    assert rerun.skipped == 4 and rerun.counts["failed"] == 4
+    calls = helpers.runner_calls(tmp_path)
+    assert len(calls) == 12, "only the 4 failed points run again"
+    assert all(c["a"] == 2 for c in calls[8:])
+
+
+def test_killed_worker_does_not_lose_the_sweep(tmp_path, scheduler):
+    sweepdir = tmp_path / "sweep"
+    marker = tmp_path / "killed"
+    spec = make_spec(tmp_path, runner="killing_runner", test={"kill_a": 2, "kill_marker": str(marker)})
+    output = Console(file=io.StringIO(), force_terminal=True, width=120)
+    result = run_sweep(spec, sweepdir, scheduler=scheduler, progress="rich", console=output)
+    assert marker.exists(), "the runner should have killed one worker"
+    assert result.ok and result.counts["done"] == 8
+    calls = helpers.runner_calls(tmp_path)
+    killed = tuple(json.loads(marker.read_text()))
+    assert killed[0] == 2
+    assert sum((c["a"], c["b"], c["seed"]) == killed for c in calls) == 2
+    assert len(calls) == 9
+    rows = rows_by_params(sweepdir)
+    assert rows[killed].attempts >= 2
+    assert rows[killed].summary == {"ab_plus_seed": killed[0] * killed[1] + killed[2]}
+    assert "8/8" in output.file.getvalue()
+
+
+def test_failed_analysis_is_redone_without_rerunning_the_simulation(tmp_path, scheduler):
+    sweepdir = tmp_path / "sweep"
+    spec = make_spec(tmp_path, analyses=["sweep_helpers:flaky_analysis"])
+    first = run_sweep(spec, sweepdir, scheduler=scheduler, console=quiet())
+    assert first.counts["failed"] == 8
+    assert all("deliberate analysis failure" in r.error for r in rows_by_params(sweepdir).values())
+    second = run_sweep(spec, sweepdir, scheduler=scheduler, console=quiet())
+    assert second.ok
+    assert all(r.summary == {"ok": 1.0} for r in rows_by_params(sweepdir).values())
+    assert len(helpers.runner_calls(tmp_path)) == 8
+
+
+def test_busy_sweep_directory_and_unknown_runner_are_refused(tmp_path):
+    sweepdir = tmp_path / "sweep"
+    sweepdir.mkdir()
+    with _exclusive(sweepdir), pytest.raises(SweepError, match="another 'grainflow sweep'"):
+        run_sweep(make_spec(tmp_path), sweepdir, scheduler="tcp://127.0.0.1:1", console=quiet())
+    spec = make_spec(tmp_path, runner="no_such_runner")
+    with pytest.raises(SweepError, match="no function 'no_such_runner'"):
+        run_sweep(spec, sweepdir, console=quiet())
+
+
+# ---------------------------------------------------------------------------------------
+# Command line
+
+
+def write_sweep_file(tmp_path: Path, sleep: float) -> Path:
+    path = tmp_path / "tiny.toml"
+    data = {
+        "base": helpers.base_config(tmp_path, sleep=sleep),
+        "overrides": {"p.a": [1, 2, 3, 4], "p.b": [1.0, 2.0]},
+        "runner": "sweep_helpers:sleep_runner",
+        "analyses": ["sweep_helpers:product"],
+    }
+    path.write_text(tomli_w.dumps(data))
+    return path
+
+
+def wait_for(condition, timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise TimeoutError("condition not reached")
+        time.sleep(0.1)
+
+
+def alive(process: psutil.Process) -> bool:
+    try:
+        return process.status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+def test_ctrl_c_leaves_a_consistent_catalog_and_the_sweep_resumes(tmp_path, scheduler):
+    sweep_file = write_sweep_file(tmp_path, sleep=0.6)
+    sweepdir = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS_DIR), os.environ.get("PYTHONPATH", "")])}
+    command = [sys.executable, "-m", "grainflow.sweep", "sweep", str(sweep_file), "-o", str(sweepdir),
+               "-n", "2", "--progress", "plain", "--progress-interval", "0.5"]
+    proc = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        catalog_file = sweepdir / "catalog.sqlite"
+
+        def some_done() -> bool:
+            if not catalog_file.exists():
+                return False
+            with Catalog(catalog_file) as catalog:
+                return catalog.counts()["done"] >= 2
+
+        wait_for(some_done, timeout=40)
+        children = psutil.Process(proc.pid).children(recursive=True)
+        assert children, "the local cluster's workers should be child processes"
+        proc.send_signal(signal.SIGINT)
+        output, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, output
+    assert "set back to pending" in output
+    wait_for(lambda: not any(alive(c) for c in children), timeout=10)
+
+    with Catalog(catalog_file) as catalog:
+        counts = catalog.counts()
+        rows = catalog.rows()
+    assert counts["running"] == 0 and counts["failed"] == 0 and counts["done"] < 8
+    done_before = {(r.params["p.a"], r.params["p.b"]) for r in rows if r.status == "done"}
+    assert all(r.summary for r in rows if r.status == "done")
+
+    result = CliRunner().invoke(
+        sweep_app, ["sweep", str(sweep_file), "-o", str(sweepdir), "--scheduler", scheduler]
+    )
+    assert result.exit_code == 0, result.output
+    assert f"{len(done_before)} already done" in result.output
+    with Catalog(catalog_file) as catalog:
+        assert catalog.counts()["done"] == 8
+    calls = [(c["a"], c["b"]) for c in helpers.runner_calls(tmp_path)]
+    assert all(calls.count(p) == 1 for p in done_before), "finished points must not run again"
+
+
+def test_sweep_status_prints_and_exports(tmp_path, scheduler):
+    sweepdir = tmp_path / "sweep"
+    spec = make_spec(tmp_path, runner="failing_runner", test={"fail_a": 1})
+    run_sweep(spec, sweepdir, scheduler=scheduler, console=quiet())
+    cli = CliRunner()
+
+    shown = cli.invoke(sweep_app, ["sweep-status", str(sweepdir)], env={"COLUMNS": "200"})
+    assert shown.exit_code == 0, shown.output
+    assert "4 done" in shown.output and "4 failed" in shown.output and "ab_plus_seed" in shown.output
+
+    failed = cli.invoke(sweep_app, ["sweep-status", str(sweepdir), "--status", "failed", "--csv", "-"])
+    table = list(csv.DictReader(io.StringIO(failed.output)))
+    assert len(table) == 4 and {r["p.a"] for r in table} == {"1"}
+    assert all("deliberate failure" in r["error"] for r in table)
+
+    out = tmp_path / "all.csv"
+    exported = cli.invoke(sweep_app, ["sweep-status", str(sweepdir), "--csv", str(out)])
+    assert exported.exit_code == 0
+    table = list(csv.DictReader(out.open()))
+    assert len(table) == 8
+    assert sorted(float(r["ab_plus_seed"]) for r in table if r["status"] == "done") == [2, 3, 4, 5]
+
+    missing = cli.invoke(sweep_app, ["sweep-status", str(tmp_path / "nothing")])
+    assert missing.exit_code == 2 and "has no catalog.sqlite" in missing.output
+
+
+def test_sweep_command_reports_bad_files(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('mode = "grdi"\n[base]\nx = 1\n')
+    result = CliRunner().invoke(sweep_app, ["sweep", str(bad)])
+    assert result.exit_code == 2
+    assert "field mode" in result.output and "'grdi'" in result.output
+
+
+# ---------------------------------------------------------------------------------------
+# Documentation and example
+
+
+def toml_blocks(markdown: str) -> list[str]:
+    blocks = markdown.split("```toml\n")[1:]
+    return [b.split("```", 1)[0] for b in blocks]
+
+
+def test_inline_base_example_of_the_docs_is_valid():
+    docs = (TESTS_DIR.parent / "docs" / "sweeps.md").read_text()
+    inline = [b for b in toml_blocks(docs) if "[base.run]" in b]
+    assert len(inline) == 1
+    spec = parse_sweep(tomllib.loads(inline[0]))
+    assert sorted(p.overrides["geometry.orifice_width"] for p in spec.points()) == [3, 3, 4, 4, 5, 5]
+
+
+def test_example_sweep_file_is_valid(tmp_path):
+    example = TESTS_DIR.parent / "examples" / "sweep_tiny.toml"
+    data = tomllib.loads(example.read_text())
+    if not (example.parent / data["base"]).exists():  # the base config is written separately
+        data["base"] = {"run": {"seed": 0}, "geometry": {"orifice_width": 4.0}}
+    spec = parse_sweep(data, source=example)
+    assert len(spec.points()) == 6 and spec.runner == "grainflow.runner:run_config"
