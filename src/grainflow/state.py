@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainflow.frame import Box, Frame
+from grainflow.kernels.permute import take_rows
 
 #: Fraction ``I / (m r^2)`` for the particle shape of each dimension.
 INERTIA_FACTOR = {2: 0.5, 3: 0.4}
@@ -194,7 +195,7 @@ class ParticleState:
         order = np.empty(n_new, dtype=np.int64)
         order[old_to_new[keep]] = np.nonzero(keep)[0]
         for name, arr in self.arrays.items():
-            self.arrays[name] = np.ascontiguousarray(arr[order])
+            self.arrays[name] = take_rows(arr, order)
         self.generation += 1
 
     def remove(self, mask: np.ndarray) -> np.ndarray:

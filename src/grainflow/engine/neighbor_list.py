@@ -109,6 +109,13 @@ class NeighborList:
         return coords, keys, order, cmin, extent, ncell, offsets, margin
 
     @staticmethod
+    def in_new_order(cells):
+        """:meth:`cell_order`'s result after the particles were re-indexed in its order."""
+        coords, keys, order, *rest = cells
+        return (np.ascontiguousarray(coords[order]), keys[order],
+                np.arange(order.shape[0], dtype=np.int64), *rest)
+
+    @staticmethod
     def _offsets(dim: int, periodic: np.ndarray, ncell: np.ndarray) -> np.ndarray:
         per_axis = []
         for a in range(3):

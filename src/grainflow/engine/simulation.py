@@ -168,7 +168,7 @@ class Simulation:
             st.reindex(old_to_new)
             if self.pair is not None:
                 self.pair.reindex(old_to_new)
-            cells = nl.cell_order(st, self.geometry, reach)
+            cells = nl.in_new_order(cells)
         nl.build(st, self.geometry, cells)
         if self.pair is not None:
             self.pair.attach(nl.row_ptr, nl.nbr)

@@ -344,12 +344,11 @@ def reindex_pairs(row_ptr, nbr, hist, old_to_new, flip):
 @njit(cache=True, parallel=True)
 def max_displacement_sq(x, x_ref, box_len, periodic):
     """Largest squared displacement since the last list build (minimum image)."""
-    n = x.shape[0]
-    best = np.zeros(n)
-    for i in prange(n):
+    best = 0.0
+    for i in prange(x.shape[0]):
         s = 0.0
         for a in range(3):
             d = minimum_image(x[i, a] - x_ref[i, a], box_len[a], periodic[a])
             s += d * d
-        best[i] = s
-    return best.max() if n else 0.0
+        best = max(best, s)
+    return best

@@ -164,18 +164,13 @@ def active_pairs(row_ptr, nbr, f_pair, active):
 @njit(cache=True, parallel=True)
 def max_pair_overlap(row_ptr, nbr, x, radius, box_len, periodic):
     """Largest overlap ``r_i + r_j - |d|`` over listed pairs (0 if none overlap)."""
-    n = row_ptr.shape[0] - 1
-    best = np.zeros(n)
-    for i in prange(n):
-        b = 0.0
+    best = 0.0
+    for i in prange(row_ptr.shape[0] - 1):
         for k in range(row_ptr[i], row_ptr[i + 1]):
             j = nbr[k]
             rsq = 0.0
             for a in range(3):
                 d = minimum_image(x[i, a] - x[j, a], box_len[a], periodic[a])
                 rsq += d * d
-            ov = radius[i] + radius[j] - np.sqrt(rsq)
-            if ov > b:
-                b = ov
-        best[i] = b
-    return best.max() if n else 0.0
+            best = max(best, radius[i] + radius[j] - np.sqrt(rsq))
+    return best
