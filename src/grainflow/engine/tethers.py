@@ -47,6 +47,7 @@ if TYPE_CHECKING:
 
 @njit(cache=True, parallel=True)
 def _anchor_forces(idx, anchor, k, eta, x, v, frozen, box_len, periodic, force):
+    """``F_i -= k (x_i - anchor) + eta v_i`` for each tethered index (-1: deleted)."""
     for a in prange(idx.shape[0]):
         i = idx[a]
         if i < 0 or frozen[i]:
@@ -58,6 +59,8 @@ def _anchor_forces(idx, anchor, k, eta, x, v, frozen, box_len, periodic, force):
 
 @njit(cache=True)
 def _bond_forces(pairs, l0, k, eta, x, v, frozen, box_len, periodic, force):
+    """Bond springs and dashpots along the bond; serial, as each bond writes to two
+    particles (a one-layer target holds few bonds)."""
     for b in range(pairs.shape[0]):
         i = pairs[b, 0]
         j = pairs[b, 1]

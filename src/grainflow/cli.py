@@ -1,0 +1,296 @@
+"""The ``grainflow`` command: run, resume, inspect and export simulations.
+
+Exit codes: 0 success; 1 the run failed (unstable, or an unexpected error); 2 bad input
+(invalid config or value, unusable run directory, bad option); 128 + signal number when
+SIGINT (130) or SIGTERM (143) stopped a run after writing its checkpoint. Failures print one line,
+``error: <reason>``, on stderr (``--debug`` shows the traceback instead).
+
+Heavy modules (numba, h5py, matplotlib) are imported inside the verbs, so ``--help`` and
+``--version`` answer at once.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any, Optional
+
+import typer
+
+from grainflow import __version__
+
+app = typer.Typer(
+    name="grainflow", no_args_is_help=True, add_completion=False,
+    pretty_exceptions_enable=False, rich_markup_mode=None,
+    help="DEM simulation of granular flows: run a TOML config, resume, inspect and export runs.")
+
+_state: dict[str, Any] = {"debug": False}
+
+ThreadsOption = Annotated[Optional[int], typer.Option(
+    "--threads", min=1, help="Number of compute threads (numba); default: all cores.")]
+ProgressOption = Annotated[str, typer.Option(
+    help="Progress display: auto (a bar on a terminal, plain lines otherwise), rich, plain "
+         "or none.")]
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"grainflow {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                          help="Print the version and exit.")] = False,
+    threads: ThreadsOption = None,
+    debug: Annotated[bool, typer.Option(help="Show tracebacks instead of one-line errors.")] = False,
+) -> None:
+    """DEM simulation of granular flows."""
+    _state["debug"] = debug
+    with _errors():
+        _set_threads(threads)
+
+
+# ---------------------------------------------------------------------------------- verbs
+@app.command()
+def run(
+    config: Annotated[Path, typer.Argument(help="Run configuration (TOML).", dir_okay=False)],
+    output: Annotated[Optional[Path], typer.Option(
+        "--output", "-o", help="Run directory (default: the config's name, here).")] = None,
+    overwrite: Annotated[bool, typer.Option(
+        help="Replace the outputs of an existing run in the run directory.")] = False,
+    threads: ThreadsOption = None,
+    progress: ProgressOption = "auto",
+) -> None:
+    """Run CONFIG into a run directory (refused if it is not empty, unless --overwrite)."""
+    from grainflow.runner import run_config
+
+    rundir = output if output is not None else Path.cwd() / config.stem
+    with _errors():
+        _set_threads(threads)
+        summary = run_config(config, rundir, overwrite=overwrite, progress=progress)
+    typer.echo(f"finished: {summary.step} steps, N = {summary.n_particles}, "
+               f"{summary.wall_time_s:.1f} s, {summary.particle_steps_per_s:.3g} "
+               f"particle-steps/s -> {rundir}")
+
+
+@app.command()
+def resume(
+    rundir: Annotated[Path, typer.Argument(help="Run directory to continue.", file_okay=False)],
+    threads: ThreadsOption = None,
+    progress: ProgressOption = "auto",
+) -> None:
+    """Continue the run in RUNDIR from its last checkpoint."""
+    from grainflow.runner import resume_run
+
+    with _errors():
+        _set_threads(threads)
+        summary = resume_run(rundir, progress=progress)
+    typer.echo(f"finished: {summary.step} steps, N = {summary.n_particles}, "
+               f"{summary.wall_time_s:.1f} s in total -> {rundir}")
+
+
+@app.command()
+def info(
+    rundir: Annotated[Path, typer.Argument(help="Run directory.", file_okay=False)],
+) -> None:
+    """Describe the run in RUNDIR: set-up, status, checkpoint, frames, last thermo row."""
+    from grainflow import runner
+
+    with _errors():
+        for name, value in _describe(rundir, runner):
+            typer.echo(f"{name:<12} {value}")
+
+
+@app.command()
+def export(
+    rundir: Annotated[Path, typer.Argument(help="Run directory.", file_okay=False)],
+    format: Annotated[str, typer.Option(
+        "--format", "-f", help="dump (LAMMPS text dump, for OVITO) or vtk (.vtp series and "
+                               ".pvd, for ParaView).")] = "dump",
+    output: Annotated[Optional[Path], typer.Option(
+        "--output", "-o", help="File (dump) or folder (vtk); default: RUNDIR/frames.dump "
+                               "or RUNDIR/vtk.")] = None,
+) -> None:
+    """Export the frames of RUNDIR (frames.h5) to another format."""
+    with _errors():
+        path, count = export_frames(rundir, format, output)
+    typer.echo(f"wrote {count} frames to {path}")
+
+
+@app.command()
+def demo(
+    output: Annotated[Path, typer.Option("--output", "-o", help="Run directory.")]
+    = Path("grainflow-demo"),
+) -> None:
+    """Run a small 2D hopper and show it (needs grainflow.scenarios.hopper)."""
+    with _errors():
+        _optional("grainflow.scenarios.hopper", "demo", "the demo")(output)
+
+
+@app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
+def bench(ctx: typer.Context) -> None:
+    """Run the chute peer benchmark (benchmarks/chute.py) against LAMMPS.
+
+    Arguments are passed on to the script; 'grainflow bench -- --help' lists them.
+    """
+    with _errors():
+        _benchmark_main()(list(ctx.args))
+
+
+def _register_sweep() -> None:
+    """Add ``sweep`` and ``sweep-status`` when the sweep subsystem is importable."""
+    try:
+        from grainflow.sweep.cli import sweep_command, sweep_status_command
+    except ImportError:
+        return
+    app.command("sweep")(sweep_command)
+    app.command("sweep-status")(sweep_status_command)
+
+
+_register_sweep()
+
+
+# -------------------------------------------------------------------------------- helpers
+class UsageError(ValueError):
+    """Bad command-line input (exit code 2)."""
+
+
+@contextmanager
+def _errors() -> Iterator[None]:
+    """Turn exceptions into ``error: <one line>`` and the documented exit codes."""
+    try:
+        yield
+    except typer.Exit:
+        raise
+    except Exception as err:  # every failure ends in one line and a non-zero status
+        if _state["debug"]:
+            raise
+        code = getattr(err, "exit_code", None)
+        if isinstance(err, (ValueError, FileNotFoundError)):  # bad input: ConfigError, UsageError
+            code = 2
+        message = " ".join(str(err).split()) or type(err).__name__
+        typer.echo(f"error: {message}", err=True)
+        raise typer.Exit(code if code is not None else 1) from None
+    except KeyboardInterrupt:
+        typer.echo("error: interrupted", err=True)
+        raise typer.Exit(130) from None
+
+
+def _set_threads(threads: int | None) -> None:
+    if threads is not None:
+        from grainflow.runner import set_threads
+
+        set_threads(threads)
+
+
+def _optional(module: str, name: str, what: str) -> Callable[..., Any]:
+    """``module.name``, or a clear error naming what is missing."""
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as err:
+        if err.name != module:
+            raise
+        raise RuntimeError(f"{what} needs {module}, which this installation does not have") from None
+    if not hasattr(mod, name):
+        raise RuntimeError(f"{what} needs {module}:{name}, which this installation does not have")
+    return getattr(mod, name)
+
+
+def _benchmark_main() -> Callable[[list[str]], Any]:
+    """``main`` of ``benchmarks/chute.py`` in the source tree (not part of the package)."""
+    import grainflow
+
+    script = Path(grainflow.__file__).resolve().parents[2] / "benchmarks" / "chute.py"
+    if not script.is_file():
+        raise RuntimeError(f"the benchmark needs {script}, which is only in a source checkout "
+                           "of grainflow (install it with pip install -e)")
+    spec = importlib.util.spec_from_file_location("grainflow_bench_chute", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    if not hasattr(module, "main"):
+        raise RuntimeError(f"{script} has no main(argv) function")
+    return module.main
+
+
+def export_frames(rundir: Path, format: str, output: Path | None) -> tuple[Path, int]:
+    """Write the frames of ``rundir/frames.h5`` as a LAMMPS dump or a VTK series."""
+    from grainflow.io.h5md import read_frames
+    from grainflow.runner import FRAMES
+
+    if format not in ("dump", "vtk"):
+        raise UsageError(f"--format: {format!r} is not valid; use dump or vtk")
+    source = rundir / FRAMES
+    if not source.is_file():
+        raise UsageError(f"{rundir}: no {FRAMES} (was output.frames_every = 0?)")
+    count = 0
+    if format == "dump":
+        from grainflow.io.lammps_dump import write_lammps_dump
+
+        path = output or rundir / "frames.dump"
+        path.write_text("")
+        for frame in read_frames(source):
+            write_lammps_dump(path, frame, append=True)
+            count += 1
+        return path, count
+    from grainflow.io.vtk import VtkSeries
+
+    path = output or rundir / "vtk"
+    series = VtkSeries(path)
+    for frame in read_frames(source):
+        series.append(frame)
+        count += 1
+    return series.pvd_path, count
+
+
+def _describe(rundir: Path, runner: Any) -> list[tuple[str, str]]:
+    """(label, value) lines of ``grainflow info``."""
+    import tomllib
+
+    config_path = rundir / runner.CONFIG
+    if not config_path.is_file():
+        raise UsageError(f"{rundir}: no {runner.CONFIG}; is it a grainflow run directory?")
+    config = tomllib.loads(config_path.read_text())
+    run = config.get("run", {})
+    length = f"{run['steps']} steps" if "steps" in run else f"duration {run.get('duration')}"
+    lines = [("run dir", str(rundir.resolve())),
+             ("scenario", f"{config.get('scenario', 'generic')}, {config.get('dim', 3)}D, "
+                          f"{length}, integrator {run.get('integrator')}")]
+    summary = runner.read_summary(rundir)
+    if summary is not None:
+        lines.append(("status", f"{summary['status']} at step {summary['step']} of "
+                                f"{summary['steps']} (t = {summary['time']:.6g}, "
+                                f"dt = {summary['dt']:.6g})"))
+        lines.append(("particles", str(summary["n_particles"])))
+        lines.append(("wall time", f"{summary['wall_time_s']:.1f} s, "
+                                   f"{summary['particle_steps_per_s']:.3g} particle-steps/s"))
+        if summary["message"]:
+            lines.append(("message", summary["message"]))
+    else:
+        lines.append(("status", "running, or stopped without a summary (killed?)"))
+    step = runner.checkpoint_step(rundir / runner.CHECKPOINT)
+    lines.append(("checkpoint", "none" if step is None else
+                  f"step {step} (resume with: grainflow resume {rundir})"))
+    if (rundir / runner.FRAMES).is_file():
+        from grainflow.io.h5md import count_frames
+
+        lines.append(("frames", f"{count_frames(rundir / runner.FRAMES)} in {runner.FRAMES}"))
+    thermo = rundir / runner.THERMO
+    if thermo.is_file():
+        rows = thermo.read_text().splitlines()
+        if len(rows) > 1:
+            last = dict(zip(rows[0].split(","), rows[-1].split(",")))
+            lines.append(("thermo", ", ".join(f"{k}={_short(v)}" for k, v in last.items())))
+    return lines
+
+
+def _short(value: str) -> str:
+    try:
+        return f"{float(value):.6g}"
+    except ValueError:
+        return value
+

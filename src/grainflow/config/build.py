@@ -1,0 +1,393 @@
+"""From a validated :class:`~grainflow.config.schema.RunConfig` to a ready-to-run Simulation.
+
+:func:`build_simulation` is the entry point: it calls the scenario's builder, then applies
+what every scenario shares (the time step, its stability check, FIRE relaxation).
+Scenario builders create their :class:`Simulation` with :func:`make_simulation`, which takes
+the ``[run]`` settings (integrator, skin, seed, health checks) from the config.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+
+from grainflow.config.schema import (ConfigError, DataFile, GranularContact, LatticeFill,
+                                     ListFill, RandomFill, RunConfig, SizedPopulation,
+                                     SoftContact)
+from grainflow.engine.forces import Drag, Gravity
+from grainflow.engine.integrators import integrator_by_name, minimize_fire
+from grainflow.engine.simulation import Simulation, TimeStepError
+from grainflow.frame import Box
+from grainflow.models.base import ContactLaw
+from grainflow.models.granular import GranularLaw, stiffness_and_damping
+from grainflow.models.soft import SoftLaw
+from grainflow.state import ParticleState
+
+__all__ = ["build_chute", "build_generic", "build_simulation", "estimate_contact_time",
+           "make_law", "make_simulation", "total_steps"]
+
+
+def build_simulation(config: RunConfig, *, prepare: bool = True) -> Simulation:
+    """Build the run's simulation at step 0.
+
+    ``prepare``: also relax overlaps with FIRE when ``run.minimize`` is set (skip it when a
+    checkpoint will be loaded into the result anyway).
+    """
+    with _config_errors():
+        sim = config.scenario_entry.build(config)
+    run = config.run
+    if run.allow_unsafe_dt:
+        sim.check_time_step = lambda: _warn_unsafe(sim)  # type: ignore[method-assign]
+    else:
+        try:
+            sim.check_time_step()
+        except TimeStepError as err:
+            raise ConfigError([f"run.{err}"]) from None
+    if prepare and run.minimize:
+        relax(sim)
+    return sim
+
+
+def total_steps(config: RunConfig, sim: Simulation) -> int:
+    """The run's length in steps (``run.steps``, or ``ceil(run.duration / dt)``)."""
+    run = config.run
+    if run.steps is not None:
+        return run.steps
+    return max(1, math.ceil(run.duration / sim.dt - 1e-9))
+
+
+def make_simulation(config: RunConfig, state: ParticleState, law: ContactLaw | None, *,
+                    default_dt: float | None = None, default_skin: float | None = None
+                    ) -> Simulation:
+    """A Simulation with the ``[run]`` settings.
+
+    The time step is ``run.dt``, else the scenario's ``default_dt``, else ``run.dt_fraction``
+    times the shortest binary contact time of the pair law (walls touching a particle have
+    the larger effective mass, hence a longer contact time).
+    """
+    run = config.run
+    sim = Simulation(state, run.dt or default_dt or 1.0, law, skin=run.skin or default_skin,
+                     integrator=integrator_by_name(run.integrator), sort_every=run.sort_every,
+                     check_every=run.check_every,
+                     max_overlap_fraction=run.max_overlap_fraction, seed=run.seed)
+    if run.dt is None and default_dt is None:
+        tc = sim.contact_time()
+        if not math.isfinite(tc):
+            raise ConfigError(["run.dt: missing; without a contact law there is no contact "
+                               "time to derive it from, so give dt explicitly"])
+        sim.dt = run.dt_fraction * tc
+    return sim
+
+
+def relax(sim: Simulation) -> None:
+    """Remove overlaps with FIRE, gravity switched off (seed 003's initialisation)."""
+    forces = sim.forces
+    sim.forces = [f for f in forces if not isinstance(f, Gravity)]
+    try:
+        minimize_fire(sim)
+    finally:
+        sim.forces = forces
+        sim.forces_current = False
+
+
+def _warn_unsafe(sim: Simulation) -> None:
+    tc = sim.contact_time()
+    if math.isfinite(tc) and sim.dt > tc / 4:
+        warnings.warn(f"dt = {sim.dt:g} is past the stability limit t_c/4 = {tc / 4:g}; "
+                      "running anyway because run.allow_unsafe_dt is set", stacklevel=2)
+
+
+@contextmanager
+def _config_errors() -> Iterator[None]:
+    """Turn ValueErrors of the engine's constructors into ConfigErrors."""
+    try:
+        yield
+    except ConfigError:
+        raise
+    except ValueError as err:
+        raise ConfigError([str(err)]) from None
+
+
+# ------------------------------------------------------------------------------ generic
+def build_generic(config: RunConfig) -> Simulation:
+    """The ``generic`` scenario: box, particle populations, laws per type pair, forces."""
+    if config.box is None:
+        raise ConfigError(["box: missing; the generic scenario needs [box] with lo and hi"])
+    box = config.box
+    periodic = tuple(box.periodic) if box.periodic is not None else (False,) * config.dim
+    state = ParticleState(config.dim, Box(np.array(box.lo), np.array(box.hi), periodic))
+    rng = np.random.default_rng([config.run.seed, 0x6275696C64])  # "build": fills, sizes
+    for k, pop in enumerate(config.particles):
+        try:
+            _add_population(state, pop, rng)
+        except ValueError as err:
+            raise ConfigError([f"particles[{k}]: {err}"]) from None
+    law = make_law(config, _type_masses(state)) if config.contact is not None else None
+    sim = make_simulation(config, state, law)
+    _add_walls(config, sim)
+    _add_tethers(config, sim)
+    _add_updaters(config, sim)
+    if config.gravity is not None:
+        sim.add_force(Gravity(config.gravity))
+    if config.drag is not None:
+        sim.add_force(Drag(np.array(config.drag)))
+    return sim
+
+
+def _add_population(state: ParticleState, pop, rng: np.random.Generator) -> None:
+    if isinstance(pop, DataFile):
+        from grainflow.io.lammps_data import read_lammps_data
+
+        data = read_lammps_data(pop.file)
+        v = data.v if pop.velocity is None else np.broadcast_to(pop.velocity, data.v[:, :state.dim].shape)
+        frozen = np.isin(data.type, pop.frozen_types) | pop.frozen
+        idx = state.add_particles(data.x[:, :state.dim], 0.5 * data.diameter, density=data.density,
+                                  v=v, omega=data.omega, type=data.type - 1 + pop.type,
+                                  frozen=frozen, ids=data.id + _first_free_id(state))
+        state.image[idx] = data.image
+        return
+    v = pop.velocity
+    if isinstance(pop, ListFill):
+        x = np.array(pop.positions)
+        radius = _radii(pop, len(x), rng)
+        if pop.velocities is not None:
+            v = np.array(pop.velocities)
+    elif isinstance(pop, RandomFill):
+        from grainflow.insertion.random_fill import random_fill
+
+        x, radius = random_fill(_region(pop.region, state.box), pop.count,
+                                _radii(pop, pop.count, rng), rng, existing_x=state.x,
+                                existing_radius=state.radius, max_attempts=pop.max_attempts)
+    else:
+        x = _lattice_sites(pop, state, rng)
+        radius = _radii(pop, len(x), rng)
+    mass_kw = {"mass": pop.mass} if pop.mass is not None else {"density": pop.density or 1.0}
+    state.add_particles(x, radius, v=_velocities(v, len(x), state.dim), type=pop.type,
+                        frozen=pop.frozen, **mass_kw)
+
+
+def _first_free_id(state: ParticleState) -> int:
+    return int(state.id.max()) + 1 if state.n else 0
+
+
+def _lattice_sites(pop: LatticeFill, state: ParticleState, rng: np.random.Generator) -> np.ndarray:
+    from grainflow.insertion.lattice import lattice_fill
+
+    rmax = max(pop.radius)
+    kind = pop.lattice or ("triangular" if state.dim == 2 else "fcc")
+    spacing = pop.spacing or 2.2 * rmax
+    x = lattice_fill(_region(pop.region, state.box), spacing, kind, rmax,
+                     packing_fraction=pop.packing_fraction, rng=rng)
+    if len(x) == 0:
+        raise ValueError(f"region: holds no {kind} site of spacing {spacing:g} at least "
+                         f"{rmax:g} (the largest radius) from its boundary; enlarge it")
+    return x
+
+
+def _region(region, box: Box):
+    from grainflow.insertion import regions
+
+    if region is None:
+        return regions.BoxRegion(tuple(box.lo), tuple(box.hi))
+    if region.shape == "box":
+        return regions.BoxRegion(tuple(region.lo), tuple(region.hi))
+    if region.shape == "cylinder":
+        return regions.CylinderRegion(tuple(region.center), region.radius, region.lo,
+                                      region.hi, region.axis)
+    if region.shape == "halfspace":
+        return regions.HalfSpace(tuple(region.point), tuple(region.normal))
+    return regions.DiskRegion(tuple(region.center), region.radius)
+
+
+def _add_tethers(config: RunConfig, sim: Simulation) -> None:
+    """One Tethers force per ``[[tethers]]``; its particles become one body (wall-wall pairs
+    then interact only through the tethers, as M5 requires)."""
+    from grainflow.engine.tethers import Tethers, neighbor_bonds
+
+    st = sim.state
+    for k, tether in enumerate(config.tethers):
+        mine = st.type == tether.type
+        if not mine.any():
+            raise ConfigError([f"tethers[{k}].type: {tether.type} is not valid; no particle "
+                               "has this type"])
+        st.body[mine] = int(st.body.max()) + 1
+        ids = st.id[mine].copy()
+        bonds = (neighbor_bonds(st, ids, tether.bond_cutoff)
+                 if tether.bond_cutoff is not None else None)
+        sim.add_force(Tethers(ids, tether.k, tether.eta, bonds=bonds))
+
+
+def _add_updaters(config: RunConfig, sim: Simulation) -> None:
+    """``[[insert]]`` (Pour, ReplenishTo) then ``[[delete]]`` (DeleteRegion) updaters."""
+    from grainflow import insertion
+
+    box = sim.state.box
+    for k, ins in enumerate(config.insert):
+        r = sorted(ins.radius)
+        sizes = (insertion.Monodisperse(2 * r[0]) if len(r) == 1 else
+                 insertion.Bidisperse(2 * r[0], r[1] / r[0]))
+        common = {"density": ins.density, "velocity": ins.velocity, "type": ins.type,
+                  "max_attempts": ins.max_attempts}
+        try:
+            if ins.kind == "pour":
+                updater = insertion.Pour(_region(ins.region, box), sizes, ins.per_insertion,
+                                         total=ins.total, **common)
+            else:
+                updater = insertion.ReplenishTo(
+                    _region(ins.count_region, box), ins.target, _region(ins.region, box), sizes,
+                    types=ins.types, **common)
+        except ValueError as err:
+            raise ConfigError([f"insert[{k}].{err}"]) from None
+        sim.add_updater(updater, ins.every)
+    for k, rule in enumerate(config.delete):
+        try:
+            region = _region(rule.region, box)
+        except ValueError as err:
+            raise ConfigError([f"delete[{k}].region.{err}"]) from None
+        sim.add_updater(insertion.DeleteRegion(region, outside=rule.outside, types=rule.types),
+                        rule.every)
+
+
+def _add_walls(config: RunConfig, sim: Simulation) -> None:
+    """One WallForce per wall type, sharing the pair law."""
+    if not config.walls:
+        return
+    if sim.pair is None:
+        raise ConfigError(["walls: need a [contact] law (walls touch particles through it)"])
+    from grainflow.walls import WallForce
+
+    by_type: dict[int, list] = {}
+    for k, wall in enumerate(config.walls):
+        try:
+            by_type.setdefault(wall.type, []).extend(wall_shapes(wall))
+        except ValueError as err:
+            raise ConfigError([f"walls[{k}].{err}"]) from None
+    for wall_type, shapes in by_type.items():
+        try:
+            sim.add_force(WallForce(shapes, sim.pair.law, wall_type))
+        except ValueError as err:
+            raise ConfigError([f"walls (type {wall_type}): {err}"]) from None
+
+
+def wall_shapes(wall) -> list:
+    """The :mod:`grainflow.walls` shapes of one ``[[walls]]`` entry."""
+    from grainflow.walls import geometry as g
+
+    velocity = tuple(wall.velocity) if wall.velocity is not None else (0.0, 0.0, 0.0)
+    params = wall.model_dump(exclude={"type", "velocity", "shape"})
+    if wall.shape == "hopper2d":
+        return g.Hopper2D(**params).segments(velocity=velocity)
+    cls = {"plane": g.Plane, "segment": g.Segment, "cylinder": g.Cylinder, "cone": g.Cone,
+           "plate_with_hole": g.PlateWithHole}[wall.shape]
+    return [cls(**params, velocity=velocity)]
+
+
+def _radii(pop: SizedPopulation, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Radii of ``n`` particles: exact number fractions, randomly assigned."""
+    radii = np.array(pop.radius)
+    if radii.size == 1:
+        return np.full(n, radii[0])
+    frac = np.array(pop.fractions) if pop.fractions is not None else np.ones(radii.size)
+    counts = np.floor(frac / frac.sum() * n).astype(int)
+    counts[: n - counts.sum()] += 1
+    return rng.permutation(np.repeat(radii, counts))
+
+
+def _velocities(v, n: int, dim: int) -> np.ndarray:
+    if v is None:
+        return np.zeros((n, dim))
+    return np.broadcast_to(np.asarray(v, dtype=float), (n, dim)).copy()
+
+
+def _type_masses(state: ParticleState) -> dict[int, float]:
+    """Mean particle mass of every type present."""
+    return {int(t): float(state.mass[state.type == t].mean()) for t in np.unique(state.type)}
+
+
+def make_law(config: RunConfig, type_mass: dict[int, float]) -> ContactLaw:
+    """The pair law of ``[contact]`` with one parameter row per type pair.
+
+    A type pair given by restitution and contact time is converted with the effective mass
+    of the two types' mean masses; a type without particles (a wall) is infinitely heavy.
+    """
+    contact = config.contact
+    n = config.n_types()
+    law: ContactLaw = GranularLaw(n) if isinstance(contact, GranularContact) else SoftLaw(n)
+    params = contact.pair_params()
+    fallback = float(np.mean(list(type_mass.values()))) if type_mass else 1.0
+    for a in range(n):
+        for b in range(a, n):
+            p = dict(params.get((a, b), params[(-1, -1)]))
+            where = "contact" if (a, b) not in params else f"contact.pairs (types [{a}, {b}])"
+            try:
+                if isinstance(contact, SoftContact):
+                    law.set_pair(a, b, **p)
+                    continue
+                if "restitution" in p:
+                    meff = _meff(type_mass.get(a), type_mass.get(b), fallback)
+                    p["kn"], p["gamma_n"] = stiffness_and_damping(
+                        p.pop("restitution"), p.pop("contact_time"), meff,
+                        p.get("damping", "mass"))
+                law.set_pair(a, b, **p)
+            except ValueError as err:
+                raise ConfigError([f"{where}: {err}"]) from None
+    return law
+
+
+def _meff(ma: float | None, mb: float | None, fallback: float) -> float:
+    if ma is None and mb is None:
+        return fallback / 2
+    if ma is None or mb is None:
+        return ma if mb is None else mb
+    return ma * mb / (ma + mb)
+
+
+def estimate_contact_time(config: RunConfig) -> float | None:
+    """Shortest binary contact time of the generic set-up, from the populations' sizes.
+
+    Uses the lightest and smallest particle of each type (the engine's convention); None
+    when no population has a known size (e.g. only LAMMPS data files).
+    """
+    if config.contact is None or config.scenario != "generic":
+        return None
+    sizes: dict[int, tuple[float, float, float]] = {}  # type -> (min mass, min radius, mean mass)
+    for pop in config.particles:
+        if not isinstance(pop, SizedPopulation):
+            continue
+        r = np.array(pop.radius)
+        if pop.mass is not None:
+            m = np.full(r.shape, pop.mass)
+        else:
+            m = (pop.density or 1.0) * (np.pi * r**2 if config.dim == 2 else 4 / 3 * np.pi * r**3)
+        old = sizes.get(pop.type, (np.inf, np.inf, float(m.mean())))
+        sizes[pop.type] = (min(old[0], m.min()), min(old[1], r.min()), old[2])
+    if not sizes:
+        return None
+    law = make_law(config, {t: s[2] for t, s in sizes.items()})
+    best = math.inf
+    for a, (ma, ra, _) in sizes.items():
+        for b, (mb, rb, _) in sizes.items():
+            if a <= b:
+                best = min(best, law.contact_time(a, b, ma * mb / (ma + mb), ra + rb))
+    return best
+
+
+# -------------------------------------------------------------------------------- chute
+def build_chute(config: RunConfig) -> Simulation:
+    """The ``chute`` scenario: LAMMPS's granular chute deck on its data file."""
+    from grainflow.io.lammps_data import read_lammps_data
+    from grainflow.scenarios.chute import CHUTE, chute_state
+
+    if config.dim != 3:
+        raise ConfigError([f"dim: {config.dim} is not valid; the chute is 3D (dim = 3)"])
+    section = config.section
+    state = chute_state(read_lammps_data(section.data_file), tuple(section.replicate))
+    law = GranularLaw(n_types=2)
+    law.set_all(kn=CHUTE["kn"], gamma_n=CHUTE["gamma_n"], gamma_t=0.0, mu=CHUTE["mu"])
+    sim = make_simulation(config, state, law, default_dt=CHUTE["dt"], default_skin=CHUTE["skin"])
+    sim.add_force(Gravity.chute(1.0, section.angle))
+    return sim

@@ -1,0 +1,1 @@
+"""Reproductions of the seed papers' studies: sweeps, fits and a report per study."""

@@ -1,0 +1,165 @@
+"""The ``grainflow`` command: verbs, --help, --version, --threads, exit codes, overwrite."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numba
+import pytest
+import tomli_w
+from typer.testing import CliRunner
+
+from grainflow import __version__
+from grainflow.cli import _optional, app
+
+VERBS = ["run", "resume", "info", "export", "demo", "bench", "sweep", "sweep-status"]
+
+#: Six disks colliding in a periodic 2D box; 300 steps.
+TINY: dict[str, Any] = {
+    "dim": 2,
+    "run": {"steps": 300},
+    "output": {"thermo_every": 50, "frames_every": 100, "checkpoint_every": 100},
+    "box": {"lo": [0, 0], "hi": [8, 8], "periodic": [True, True]},
+    "particles": [{"fill": "list", "positions": [[1, 1], [2.2, 1], [4, 4], [5.2, 4.1],
+                                                  [1, 6], [2.3, 6]],
+                   "velocities": [[1, 0], [-1, 0], [0.5, 0], [-0.5, 0], [0, 0.2], [0, 0]],
+                   "radius": [0.5, 0.55]}],
+    "contact": {"law": "granular", "restitution": 0.8, "contact_time": 0.05, "mu": 0.5},
+}
+
+
+@pytest.fixture(autouse=True)
+def restore_threads():
+    """``--threads`` changes numba's thread count for the whole process; put it back."""
+    before = numba.get_num_threads()
+    yield
+    numba.set_num_threads(before)
+
+
+def invoke(*args: str):
+    """Run the command in-process with one numba thread (the test machine is shared)."""
+    return CliRunner().invoke(app, ["--threads", "1", *args])
+
+
+def config_file(tmp_path: Path, config: dict[str, Any] = TINY, name: str = "tiny.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(tomli_w.dumps(config))
+    return path
+
+
+def one_line_error(result) -> str:
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    return lines[0]
+
+
+def test_version() -> None:
+    result = invoke("--version")
+    assert result.exit_code == 0 and result.stdout.strip() == f"grainflow {__version__}"
+
+
+def test_python_dash_m_runs_the_same_command() -> None:
+    out = subprocess.run([sys.executable, "-m", "grainflow", "--version"],
+                         capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip() == f"grainflow {__version__}"
+
+
+@pytest.mark.parametrize("verb", [None, *VERBS])
+def test_help_on_every_verb(verb: str | None) -> None:
+    result = CliRunner().invoke(app, ["--help"] if verb is None else [verb, "--help"])
+    assert result.exit_code == 0, result.output
+    assert "Usage:" in result.stdout
+    if verb is None:
+        for name in VERBS:
+            assert name in result.stdout
+        assert "--threads" in result.stdout and "--version" in result.stdout
+
+
+def test_run_info_export_resume(tmp_path: Path) -> None:
+    rundir = tmp_path / "run"
+    result = invoke("run", str(config_file(tmp_path)), "-o", str(rundir), "--progress", "plain")
+    assert result.exit_code == 0, result.stderr
+    assert "finished: 300 steps" in result.stdout
+    assert numba.get_num_threads() == 1
+
+    info = invoke("info", str(rundir))
+    assert info.exit_code == 0
+    assert "finished at step 300 of 300" in info.stdout
+    assert "4 in frames.h5" in info.stdout and "step 300" in info.stdout
+
+    dump = invoke("export", str(rundir), "--format", "dump")
+    assert dump.exit_code == 0 and (rundir / "frames.dump").is_file()
+    vtk = invoke("export", str(rundir), "--format", "vtk", "-o", str(tmp_path / "vtk"))
+    assert vtk.exit_code == 0 and (tmp_path / "vtk" / "frame.pvd").is_file()
+
+    again = invoke("resume", str(rundir))  # a finished run resumes to its end at once
+    assert again.exit_code == 0, again.stderr
+
+
+def test_existing_run_directory_needs_overwrite(tmp_path: Path) -> None:
+    config = config_file(tmp_path)
+    rundir = tmp_path / "run"
+    assert invoke("run", str(config), "-o", str(rundir)).exit_code == 0
+    refused = invoke("run", str(config), "-o", str(rundir))
+    assert refused.exit_code == 2
+    assert "--overwrite" in one_line_error(refused)
+    replaced = invoke("run", str(config), "-o", str(rundir), "--overwrite")
+    assert replaced.exit_code == 0, replaced.stderr
+
+
+def test_default_run_directory_is_the_config_name(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    config = copy.deepcopy(TINY)
+    config["run"]["steps"] = 10
+    assert invoke("run", str(config_file(tmp_path, config, "short.toml"))).exit_code == 0
+    assert (tmp_path / "short" / "summary.json").is_file()
+
+
+BAD = [
+    # (arguments, exit code, text in the one-line error); {cfg}: a valid config file,
+    # {bad}: one with a negative radius, {dir}: an empty directory
+    (["run", "{bad}", "-o", "{dir}/out"], 2, "particles[0].radius[0]: -0.5 is not valid"),
+    (["run", "{dir}/missing.toml"], 2, "no such file"),
+    (["resume", "{dir}"], 2, "no config.toml"),
+    (["info", "{dir}"], 2, "no config.toml"),
+    (["export", "{dir}", "--format", "csv"], 2, "--format: 'csv' is not valid"),
+    (["run", "{cfg}", "-o", "{dir}/out", "--threads", "999"], 2, "threads: 999 is not valid"),
+]
+
+
+@pytest.mark.parametrize(("args", "code", "text"), BAD, ids=[b[2][:30] for b in BAD])
+def test_failures_exit_non_zero_with_one_line(tmp_path: Path, args: list[str], code: int,
+                                              text: str) -> None:
+    bad = copy.deepcopy(TINY)
+    bad["particles"][0]["radius"] = -0.5
+    paths = {"cfg": str(config_file(tmp_path)), "bad": str(config_file(tmp_path, bad, "bad.toml")),
+             "dir": str(tmp_path / "empty")}
+    (tmp_path / "empty").mkdir()
+    result = invoke(*[a.format(**paths) for a in args])
+    assert result.exit_code == code
+    assert text in one_line_error(result)
+
+
+@pytest.mark.filterwarnings("ignore:dt = .* is past the stability limit")
+def test_unstable_run_exits_1(tmp_path: Path) -> None:
+    config = copy.deepcopy(TINY)
+    config["run"].update(dt=0.5, allow_unsafe_dt=True, check_every=1)
+    result = invoke("run", str(config_file(tmp_path, config)), "-o", str(tmp_path / "run"))
+    assert result.exit_code == 1
+    assert "unstable at step" in one_line_error(result)
+
+
+def test_threads_out_of_range_is_a_usage_error() -> None:
+    result = CliRunner().invoke(app, ["--threads", "0", "info", "."])
+    assert result.exit_code == 2
+
+
+def test_missing_optional_parts_give_a_clear_error() -> None:
+    with pytest.raises(RuntimeError, match="the demo needs grainflow.no_such_module"):
+        _optional("grainflow.no_such_module", "demo", "the demo")
+    with pytest.raises(RuntimeError, match="needs grainflow.cli:no_such_function"):
+        _optional("grainflow.cli", "no_such_function", "the demo")
