@@ -187,9 +187,6 @@ def test_reinsertion_updater_state_round_trip() -> None:
         assert np.array_equal(getattr(copy, name), getattr(up, name))
 
 
-@pytest.mark.xfail(raises=ValueError, strict=False,
-                   reason="engine: PairForce.load_state_dict reshapes an empty history with "
-                          "reshape(-1, 0) for laws without history (SoftLaw); reported")
 def test_simulation_checkpoint_round_trip() -> None:
     a = _tiny(seed=4)
     a.run(1500)

@@ -303,9 +303,6 @@ def test_adams_bashforth_history_survives_a_checkpoint(tmp_path: Path) -> None:
         assert np.array_equal(ref[name], got[name]), name
 
 
-@pytest.mark.xfail(reason="engine: PairForce.load_state_dict reshapes the empty history of a "
-                          "law without history (SoftLaw) with reshape(-1, 0); reported",
-                   raises=ValueError, strict=False)
 def test_soft_law_run_resumes_bitwise(tmp_path: Path) -> None:
     config = settle(steps=600, checkpoint_every=0, frames_every=0, snapshot=False)
     config["contact"] = {"law": "soft", "epsilon": 1000.0, "mu": 0.5}

@@ -101,8 +101,10 @@ class PairForce(Force):
     def load_state_dict(self, data: dict[str, Any]) -> None:
         self._ptr = np.asarray(data["ptr"], dtype=np.int64)
         self._nbr = np.asarray(data["nbr"], dtype=np.int64)
+        # one history row per pair slot; explicit row count so a law without history
+        # (history_size 0, e.g. SoftLaw) round-trips too
         self.history = np.asarray(data["history"], dtype=np.float64).reshape(
-            -1, self.law.history_size)
+            self._nbr.shape[0], self.law.history_size)
         self.active = np.asarray(data["active"], dtype=np.uint8)
         self.fc_pair = np.asarray(data["fc_pair"], dtype=np.float64).reshape(-1, 6)
 

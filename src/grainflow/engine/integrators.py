@@ -85,7 +85,8 @@ class FireResult:
     max_force: float
 
 
-def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None, force_tol: float = 0.0,
+def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None,
+                  force_tol: float | None = None,
                   max_steps: int = 100_000, dt_max_factor: float = 10.0, n_min: int = 5,
                   f_inc: float = 1.1, f_dec: float = 0.5, alpha_start: float = 0.1,
                   f_alpha: float = 0.99) -> FireResult:
@@ -93,8 +94,10 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None, force_
 
     Translational degrees of freedom only (spins are zeroed). Uses the simulation's forces
     as they are: switch gravity off first for the seed-003 initialisation. Stops when the
-    largest pair overlap is below ``overlap_tol`` (default ``1e-6`` of the mean diameter) and
-    the largest force below ``force_tol``, or after ``max_steps``. The simulation's time
+    largest pair overlap is below ``overlap_tol`` (default ``1e-6`` of the mean diameter) and,
+    if ``force_tol`` is given, the largest force component at most ``force_tol``; or after
+    ``max_steps``. (No force criterion by default: velocity-dependent forces such as seed
+    003's kinetic friction leave a round-off residual that never reaches exactly zero.) The simulation's time
     step is restored afterwards, velocities are zeroed, and the step counter is not advanced.
     """
     st = sim.state
@@ -112,8 +115,12 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None, force_
     steps = 0
     overlap = sim.max_overlap()
     fmax = float(np.abs(st.force[mobile]).max()) if mobile.any() else 0.0
+
+    def done() -> bool:
+        return overlap < overlap_tol and (force_tol is None or fmax <= force_tol)
+
     try:
-        while steps < max_steps and not (overlap < overlap_tol and fmax <= force_tol):
+        while steps < max_steps and not done():
             sim.dt = dt
             a = st.force / st.mass[:, None]
             st.v[mobile] += 0.5 * dt * a[mobile]
@@ -144,7 +151,7 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None, force_
         st.v[:] = 0.0
         st.omega[:] = 0.0
     overlap = sim.max_overlap()
-    return FireResult(overlap < overlap_tol and fmax <= force_tol, steps, overlap, fmax)
+    return FireResult(done(), steps, overlap, fmax)
 
 
 def integrator_by_name(name: str) -> Integrator:

@@ -39,6 +39,7 @@ def read_lammps_data(path: str | Path) -> LammpsData:
     lo = np.zeros(3)
     hi = np.zeros(3)
     natoms = None
+    tilted = False
     sections: dict[str, list[str]] = {}
     current = None
     for raw in lines[1:]:
@@ -50,6 +51,8 @@ def read_lammps_data(path: str | Path) -> LammpsData:
             if line.endswith("atoms") and len(words) == 2:
                 natoms = int(words[0])
                 continue
+            if line.endswith("xy xz yz"):
+                tilted = True
             for a, tag in enumerate(("xlo xhi", "ylo yhi", "zlo zhi")):
                 if line.endswith(tag):
                     lo[a], hi[a] = float(words[0]), float(words[1])
@@ -66,7 +69,10 @@ def read_lammps_data(path: str | Path) -> LammpsData:
         sections[current].append(line)
     if natoms is None or "Atoms" not in sections:
         raise ValueError(f"{path}: not a LAMMPS data file (no atom count or Atoms section)")
-    atoms = np.array([row.split() for row in sections["Atoms"]], dtype=float)
+    if tilted:
+        raise ValueError(f"{path}: triclinic box (xy xz yz line); only orthogonal boxes are "
+                         "read: write the data file from an orthogonal region")
+    atoms = _numeric_table(path, "Atoms", sections["Atoms"])
     if atoms.shape[0] != natoms:
         raise ValueError(f"{path}: header says {natoms} atoms, Atoms section has "
                          f"{atoms.shape[0]}")
@@ -80,9 +86,16 @@ def read_lammps_data(path: str | Path) -> LammpsData:
     v = np.zeros((natoms, 3))
     omega = np.zeros((natoms, 3))
     if "Velocities" in sections:
-        vel = np.array([row.split() for row in sections["Velocities"]], dtype=float)
+        vel = _numeric_table(path, "Velocities", sections["Velocities"])
+        if vel.shape[1] != 7:
+            raise ValueError(f"{path}: Velocities lines have {vel.shape[1]} columns; atom_style "
+                             "sphere needs 7 (id vx vy vz wx wy wz)")
         index = {int(a): k for k, a in enumerate(atoms[:, 0])}
-        rows = np.array([index[int(a)] for a in vel[:, 0]])
+        unknown = [int(a) for a in vel[:, 0] if int(a) not in index]
+        if unknown:
+            raise ValueError(f"{path}: Velocities section names atom id(s) {unknown[:5]} that "
+                             "the Atoms section does not have")
+        rows = np.array([index[int(a)] for a in vel[:, 0]], dtype=np.int64)
         v[rows] = vel[:, 1:4]
         omega[rows] = vel[:, 4:7]
     diameter = atoms[:, 2]
@@ -91,6 +104,20 @@ def read_lammps_data(path: str | Path) -> LammpsData:
     return LammpsData(lo=lo, hi=hi, id=atoms[:, 0].astype(np.int64),
                       type=atoms[:, 1].astype(np.int32), diameter=diameter, density=atoms[:, 3],
                       x=atoms[:, 4:7], image=image, v=v, omega=omega)
+
+
+def _numeric_table(path: Path, section: str, rows: list[str]) -> np.ndarray:
+    """The lines of one section as a float table; ragged or non-numeric lines are named."""
+    counts = [len(r.split()) for r in rows]
+    if len(set(counts)) > 1:
+        width = max(set(counts), key=counts.count)  # the most common line length
+        bad = next(r for r, c in zip(rows, counts) if c != width)
+        raise ValueError(f"{path}: {section} line '{bad}' has {len(bad.split())} columns, the "
+                         f"others {width}")
+    try:
+        return np.array([r.split() for r in rows], dtype=float).reshape(len(rows), -1)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {section} section has a non-numeric entry ({exc})") from None
 
 
 def state_from_lammps_data(data: LammpsData, periodic: tuple[bool, bool, bool],
