@@ -16,7 +16,8 @@ analyses take ``up`` = +y (+z), their default.
 Model (SPEC M3): bidisperse 50:50 disks/spheres, sigma_l/sigma_s = 1.4 (particle types 0 =
 small, 1 = large; the walls are type 2). Pair energy (eps_sp/2)(1 - r/sigma_mn)^2, wall energy
 (eps_w/2)(1 - 2 d_w/sigma_m)^2, both through :class:`~grainflow.models.soft.SoftLaw`; drag
-F = -zeta v (:class:`~grainflow.engine.forces.Drag`); kinetic friction -mu sum (v_m - v_n)
+F = -f_d zeta v (:class:`~grainflow.engine.forces.Drag`; f_d = ``drag_factor`` = 16 by
+default, see :class:`HopperSection`: our reading of the illegible eq. 5); kinetic friction -mu sum (v_m - v_n)
 between touching grains (not with walls). lambda = zeta/mu; the seed's limits are
 lambda -> 0: mu/mu0 = 10 sqrt(10), zeta = 0 and lambda -> inf: zeta/zeta0 = 1/sqrt(10),
 mu = 0. For finite lambda the seed gives no magnitudes; we interpolate between the limits::
@@ -40,7 +41,8 @@ with zero velocity; FIRE (``run.minimize = true``, gravity off) removes any over
 Time step (the seed's value is illegible, PARAMETERS.md "NF"): ``dt = dt_fraction * t_c``
 with t_c the shortest contact time of the pair law *and* of the walls (a wall contact of a
 small grain, t_c = pi sqrt(m_s r_s^2 / eps_w), is usually the stiffest); ``dt_fraction`` =
-1/20 by default. docs/hopper_study.md shows that halving it leaves Q unchanged.
+1/20 by default, and at most 0.2 m_eff/mu (:func:`hopper_time_step`, kinetic friction).
+docs/hopper_study.md shows that halving it leaves Q unchanged.
 """
 
 from __future__ import annotations
@@ -75,6 +77,13 @@ SIGMA_SMALL = 2.0 / (1.0 + DIAMETER_RATIO)
 #: mu/mu0 in the lambda -> 0 limit and zeta/zeta0 in the lambda -> inf limit (seed Sec. 4).
 LIMIT_MU = 10.0 * math.sqrt(10.0)
 LIMIT_ZETA = 1.0 / math.sqrt(10.0)
+#: Default drag multiplier: the SP drag on a grain is -DRAG_FACTOR * zeta * v (see
+#: :class:`HopperSection` ``drag_factor`` and docs/hopper_study.md). 16 = N_v, the number of
+#: vertices of the seed's DP particles, each of which feels -zeta v (seed eq. 11).
+DRAG_FACTOR = 16.0
+#: dt is at most this fraction of the kinetic-friction relaxation time m_eff/mu
+#: (:func:`hopper_time_step`).
+DAMPING_FRACTION = 0.2
 #: Particle types: 0 small, 1 large, 2 walls.
 WALL_TYPE = 2
 EVENTS = "events.csv"
@@ -95,6 +104,11 @@ class HopperSection(BaseModel):
     lam: float = Field(math.inf, ge=0, description="lambda = zeta/mu; 0 and inf are the "
                        "seed's limits (write inf in TOML)")
     zeta: float | None = Field(None, ge=0, description="explicit drag (overrides lam)")
+    drag_factor: float = Field(DRAG_FACTOR, gt=0, description="drag force on a grain = "
+                               "-drag_factor * zeta * v. Seed eq. (5) is illegible; 16 = N_v "
+                               "(the DP model's per-vertex drag, eq. 11, summed over its 16 "
+                               "vertices) reproduces the seed's flow rates, 1 is a literal "
+                               "-zeta v (docs/hopper_study.md)")
     mu: float | None = Field(None, ge=0, description="explicit kinetic friction (overrides lam)")
     fill_fraction: float = Field(0.45, gt=0, lt=0.6, description="packing fraction of the "
                                  "initial random fill (2D; 3D uses 0.6 of it)")
@@ -201,13 +215,13 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     sim = Simulation(state, 1.0, law, skin=skin, sort_every=sort_every,
                      check_every=check_every, max_overlap_fraction=max_overlap_fraction,
                      seed=seed)
-    sim.dt = dt if dt is not None else section.dt_fraction * hopper_contact_time(sim, section)
+    sim.dt = dt if dt is not None else hopper_time_step(sim, section, mu)
     sim.add_force(WallForce(walls, law, WALL_TYPE))
     g = np.zeros(dim)
     g[-1] = -1.0
     sim.add_force(Gravity(g))
     if zeta > 0:
-        sim.add_force(Drag(zeta))
+        sim.add_force(Drag(section.drag_factor * zeta))
     updater = HopperReinsertion(dim, 0.0, np.zeros(dim - 1), width,
                                 depth=section.reinsert_depth)
     updater.setup_state(sim)
@@ -238,6 +252,21 @@ def hopper_contact_time(sim: "Simulation", section: HopperSection) -> float:
     small = int(np.argmin(st.radius))
     wall = math.pi * math.sqrt(float(st.mass[small]) * float(st.radius[small]) ** 2 / section.E_w)
     return min(sim.contact_time(), wall)
+
+
+def hopper_time_step(sim: "Simulation", section: HopperSection, mu: float) -> float:
+    """``dt = min(dt_fraction * t_c, DAMPING_FRACTION * m_eff / mu)``.
+
+    t_c is :func:`hopper_contact_time`; the second bound keeps the explicit integration of the
+    kinetic friction accurate: it relaxes the relative velocity of two small grains at the
+    rate mu / m_eff (m_eff = m_s / 2), which at the seed's mu/mu0 = 10 sqrt(10) is faster than
+    the contact oscillation of soft grains.
+    """
+    dt = section.dt_fraction * hopper_contact_time(sim, section)
+    if mu > 0 and sim.state.n:
+        meff = 0.5 * float(sim.state.mass.min())
+        dt = min(dt, DAMPING_FRACTION * meff / mu)
+    return dt
 
 
 def prepare(sim: "Simulation") -> None:
@@ -367,13 +396,15 @@ def _overlap_corrected(rundir: Path, flow: "FlowRate", dim: int, w: float) -> di
 
 # ------------------------------------------------------------------------------- demo
 def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: float = 10.0,
-         duration: float = 120.0, E_sp: float = 1000.0, E_w: float = 1000.0, seed: int = 0,
+         duration: float = 300.0, E_sp: float = 1000.0, E_w: float = 1000.0, seed: int = 0,
          quiet: bool = False) -> "FlowRate":
     """A 2D hopper discharge in the lambda -> inf limit; about a minute on 2 cores.
 
-    ``n`` grains, a wide orifice (w = 10 sigma_avg flows fast), ``duration`` t0 of flow,
-    E_sp = E_w = 1000 (moderately stiff grains; walls no stiffer than the grains, so that the
-    wall contact time does not shorten dt, see :func:`hopper_contact_time`). Prints Q with its error bar in Q0 = sigma_avg^2/t0,
+    ``n`` grains, a wide orifice (w = 10 sigma_avg), ``duration`` t0 of flow (the settling
+    of the loose initial fill under drag, the transient that the analysis discards, takes
+    about 120 t0), E_sp = E_w = 1000 (moderately stiff grains; walls no stiffer than the
+    grains, so that the wall contact time does not shorten dt, see
+    :func:`hopper_contact_time`). Prints Q with its error bar in Q0 = sigma_avg^2/t0,
     writes ``snapshot.png``, ``flow_rate.png`` and ``events.csv`` into ``out_dir`` (default
     ``./grainflow-demo``) and returns the :class:`~grainflow.analysis.hopper.FlowRate`.
     """

@@ -32,20 +32,23 @@ class StudyPlan:
     n_2d: int
     n_3d: int
     hard_E_sp: float
+    wall_E: float
     reductions: tuple[str, ...] = field(default=())
 
 
-FULL = StudyPlan(widths_2d=(3.0, 4.0, 5.0, 6.0, 8.0, 10.0), widths_3d=(4.0, 5.0, 6.0, 8.0),
-                 lambdas_2d=(0.0, 1e-3, 1e-2, 0.05, 0.3, 3.0, math.inf),
-                 duration_2d=600.0, duration_3d=300.0, n_2d=1600, n_3d=6400, hard_E_sp=1e4)
-REDUCED = StudyPlan(widths_2d=(4.0, 6.0, 8.0, 10.0), widths_3d=(5.0, 6.0, 8.0),
-                    lambdas_2d=(0.0, 1e-2, 0.1, math.inf), duration_2d=120.0,
-                    duration_3d=60.0, n_2d=1600, n_3d=2000, hard_E_sp=1e3,
-                    reductions=("4 widths in 2D, 3 in 3D (seed: ~8)",
-                                "2 finite lambda in 2D (seed: ~10); lambda_c poorly constrained",
-                                "120 t0 of flow in 2D, 60 t0 in 3D",
+FULL = StudyPlan(widths_2d=(3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0), widths_3d=(4.0, 5.0, 6.0, 8.0),
+                 lambdas_2d=(0.0, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, math.inf),
+                 duration_2d=1000.0, duration_3d=600.0, n_2d=1600, n_3d=6400, hard_E_sp=1e4,
+                 wall_E=1e4)
+REDUCED = StudyPlan(widths_2d=(4.0, 5.0, 6.0, 8.0, 10.0), widths_3d=(4.0, 5.0, 6.0, 8.0),
+                    lambdas_2d=(0.0, 3e-3, 3e-2, 0.3, math.inf), duration_2d=400.0,
+                    duration_3d=250.0, n_2d=1600, n_3d=2000, hard_E_sp=1e3, wall_E=1e3,
+                    reductions=("5 widths in 2D, 4 in 3D (seed: ~8)",
+                                "3 finite lambda in 2D (seed: ~10); lambda_c poorly constrained",
+                                "400 t0 of flow in 2D, 250 t0 in 3D",
                                 "3D: N = 2000 in a cylinder of 20 sigma_s (seed: 6400, 30 sigma_s)",
-                                "hard-particle limit at E_sp = 1e3 (seed: 1e4-1e5)"))
+                                "hard-particle limit at E_sp = 1e3 (seed: 1e4-1e5)",
+                                "E_w = 1e3 (seed: 1e4; stiffer walls only shorten dt)"))
 
 SEED = {("beta", 2, 0.0): 1.5, ("beta", 2, math.inf): 0.5, ("beta", 3, 0.0): 2.5,
         ("beta", 3, math.inf): 1.5, ("k", 2, 0.0): 1.6, ("k", 2, math.inf): 3.4,
@@ -54,7 +57,7 @@ SEED = {("beta", 2, 0.0): 1.5, ("beta", 2, math.inf): 0.5, ("beta", 3, 0.0): 2.5
 
 def _base(dim: int, plan: StudyPlan, E_sp: float) -> dict[str, Any]:
     hopper: dict[str, Any] = {"n": plan.n_2d if dim == 2 else plan.n_3d, "orifice_width": 6.0,
-                              "E_sp": E_sp, "E_w": 1.0e4, "lam": math.inf, "dt_fraction": 0.05}
+                              "E_sp": E_sp, "E_w": max(plan.wall_E, E_sp), "lam": math.inf, "dt_fraction": 0.05}
     if dim == 3 and plan is REDUCED:
         hopper["width"] = 20.0 * SIGMA_SMALL
     duration = plan.duration_2d if dim == 2 else plan.duration_3d
