@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 from grainflow import __version__
 from grainflow.cli import _optional, app
 
-VERBS = ["run", "resume", "info", "export", "demo", "bench", "sweep", "sweep-status"]
+VERBS = ["run", "resume", "info", "export", "demo", "bench", "study", "sweep", "sweep-status"]
 
 #: Six disks colliding in a periodic 2D box; 300 steps.
 TINY: dict[str, Any] = {
@@ -128,6 +128,7 @@ BAD = [
     (["info", "{dir}"], 2, "no config.toml"),
     (["export", "{dir}", "--format", "csv"], 2, "--format: 'csv' is not valid"),
     (["run", "{cfg}", "-o", "{dir}/out", "--threads", "999"], 2, "threads: 999 is not valid"),
+    (["study", "jets", "-o", "{dir}/s"], 2, "study: 'jets' is not known"),
 ]
 
 

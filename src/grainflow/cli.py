@@ -132,6 +132,28 @@ def demo(
         _optional("grainflow.scenarios.hopper", "demo", "the demo")(output)
 
 
+@app.command()
+def study(
+    name: Annotated[str, typer.Argument(help="Which study: 'hopper' (seed 003).")],
+    output: Annotated[Path | None, typer.Option("--output", "-o",
+                                                help="Study directory (default: NAME_study).")]
+    = None,
+    full: Annotated[bool, typer.Option("--full", help="The full study instead of the reduced "
+                                       "one (see docs/hopper_study.md for its cost).")] = False,
+    scheduler: Annotated[str | None, typer.Option(
+        "--scheduler", help="dask scheduler address (default: a local cluster).")] = None,
+) -> None:
+    """Reproduce a seed study through the sweep engine and write its report.md."""
+    with _errors():
+        if name != "hopper":
+            raise UsageError(f"study: {name!r} is not known; available: hopper")
+        from grainflow.studies.hopper_study import reproduce
+
+        report = reproduce(output or Path(f"{name}_study"), reduced=not full,
+                           scheduler=scheduler)
+        typer.echo(f"report: {report}")
+
+
 @app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
 def bench(ctx: typer.Context) -> None:
     """Run the chute peer benchmark (benchmarks/chute.py) against LAMMPS.

@@ -62,7 +62,13 @@ def _base(dim: int, plan: StudyPlan, E_sp: float) -> dict[str, Any]:
         hopper["width"] = 20.0 * SIGMA_SMALL
     duration = plan.duration_2d if dim == 2 else plan.duration_3d
     return {"scenario": f"hopper{dim}d", "dim": dim,
-            "run": {"duration": duration, "minimize": True, "max_overlap_fraction": 1.0,
+            # health check at 2 r_s for E_sp = 100: with lambda -> 0 (no drag) the loose
+            # initial fill falls ~30 sigma freely and its impact on the base compresses pairs
+            # by up to ~0.65 sigma_avg (1.5 r_s) for a few t0. The impact energy per grain
+            # (~20) stays below the pair barrier eps/2 = 50, dt/t_c ~ 0.01: the physics of the
+            # SP model, not an instability.
+            "run": {"duration": duration, "minimize": True,
+                    "max_overlap_fraction": 2.0 if E_sp < 1e3 else 1.0,
                     "seed": 0},
             "output": {"thermo_every": 5000, "frames_every": 10000, "checkpoint_every": 0,
                        "snapshot": True},

@@ -400,7 +400,8 @@ def _exclusive(sweepdir: Path) -> Iterator[None]:
 
 def _record_sweep(spec: SweepSpec, sweepdir: Path, catalog: Catalog, console: Console) -> None:
     """Save the resolved sweep file; warn if the base config changed since the last run."""
-    record = spec.model_dump(mode="json", exclude_none=True)
+    # python mode: JSON mode would turn lambda = inf into null, which TOML cannot hold
+    record = spec.model_dump(mode="python", exclude_none=True)
     (sweepdir / SWEEP_RECORD).write_text(tomli_w.dumps(record))
     base = json.dumps(spec.base, sort_keys=True, default=str)
     previous = catalog.get_meta("base_config")
