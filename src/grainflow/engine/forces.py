@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -44,6 +45,9 @@ class PairForce(Force):
     The history array is aligned with the simulation's neighbour list; when the list is
     rebuilt, :meth:`attach` carries each pair's history over, and when particles are
     re-indexed, :meth:`reindex` re-expresses it in the new indices.
+
+    :meth:`compute` *sets* ``state.force`` and ``state.torque`` (the pair force is always
+    the first force operation of a step, so this replaces zeroing them).
     """
 
     def __init__(self, law: ContactLaw) -> None:
@@ -56,31 +60,55 @@ class PairForce(Force):
         self.fc_pair = np.zeros((0, 6))
         #: 1 where the law was evaluated at the last force call (see pair_loop).
         self.active = np.zeros(0, dtype=np.uint8)
+        #: ``active`` in the column order of the list's transpose, for the gather; derived
+        #: from ``active`` whenever the list or ``active`` is replaced (``_columns_of``).
+        self.active_col = np.zeros(0, dtype=np.uint8)
+        self._columns_of: np.ndarray | None = None
+        #: Per particle: the j-side sums the pair loop builds directly (zero between calls).
+        self.col_sum = np.zeros((0, 6))
 
     def reindex(self, old_to_new: np.ndarray) -> None:
         """Follow a permutation/deletion of particles (``old_to_new[i] = -1`` drops i)."""
         self._ptr, self._nbr, self.history = nk.reindex_pairs(
             self._ptr, self._nbr, self.history, old_to_new, self.law.flip)
 
-    def attach(self, row_ptr: np.ndarray, nbr: np.ndarray) -> None:
-        """Adopt a freshly built list, carrying over the history of surviving pairs."""
+    def attach(self, row_ptr: np.ndarray, nbr: np.ndarray,
+               new_to_old: np.ndarray | None = None) -> None:
+        """Adopt a freshly built list, carrying over the history of surviving pairs.
+
+        ``new_to_old``: the particles were re-sorted since the old list was attached
+        (``new_to_old[a]`` is the old index of particle ``a``); the history is carried
+        through the permutation and the rebuild in one pass.
+        """
         new_hist = np.empty((nbr.shape[0], self.law.history_size))
-        nk.carry_history(self._ptr, self._nbr, self.history, row_ptr, nbr, new_hist)
+        if new_to_old is None:
+            nk.carry_history(self._ptr, self._nbr, self.history, row_ptr, nbr, new_hist)
+            self.active = np.any(new_hist != 0.0, axis=1).astype(np.uint8)
+        else:
+            self.active = np.empty(nbr.shape[0], dtype=np.uint8)
+            nk.carry_history_permuted(self._ptr, self._nbr, self.history, new_to_old,
+                                      self.law.flip, row_ptr, nbr, new_hist, self.active)
         self._ptr, self._nbr, self.history = row_ptr, nbr, new_hist
         self.fc_pair = np.zeros((nbr.shape[0], 6))
-        self.active = np.any(new_hist != 0.0, axis=1).astype(np.uint8)
+        self._columns_of = None
 
     def compute(self, sim: "Simulation", update: bool) -> None:
         st = sim.state
         nl = sim.neighbors
         g = sim.geometry
+        if self._columns_of is not nl.col_pair:
+            self.active_col = self.active[nl.col_pair]
+            self._columns_of = nl.col_pair
+        if self.col_sum.shape[0] != st.n:
+            self.col_sum = np.zeros((st.n, 6))
+        chunks = max(1, min(numba.get_num_threads(), st.n))
         evaluate_pairs(self.law.evaluator, self.law.table, self.law.reach(), st.x, st.v,
                        st.omega, st.radius, st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr,
-                       self.history,
-                       self.fc_pair, self.active, g.length, g.periodic, sim.dt, update, st.force,
-                       st.torque)
-        gather_pair_forces(nl.col_ptr, nl.col_pair, self.fc_pair, self.active, st.radius,
-                           st.force, st.torque)
+                       nl.pair_col, nl.col_span, chunks, self.history, self.fc_pair,
+                       self.active, self.active_col, self.col_sum, g.length, g.periodic,
+                       sim.dt, update, st.force, st.torque)
+        gather_pair_forces(nl.col_ptr, nl.col_pair, nl.col_span, chunks, self.fc_pair,
+                           self.active_col, self.col_sum, st.radius, st.force, st.torque)
 
     def contacts(self, sim: "Simulation") -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                      np.ndarray]:
@@ -106,10 +134,12 @@ class PairForce(Force):
         self.history = np.asarray(data["history"], dtype=np.float64).reshape(
             self._nbr.shape[0], self.law.history_size)
         self.active = np.asarray(data["active"], dtype=np.uint8)
+        self._columns_of = None
         self.fc_pair = np.asarray(data["fc_pair"], dtype=np.float64).reshape(-1, 6)
 
     def nbytes(self) -> int:
-        return int(self.history.nbytes + self.fc_pair.nbytes + self.active.nbytes)
+        return int(self.history.nbytes + self.fc_pair.nbytes + self.active.nbytes
+                   + self.active_col.nbytes + self.col_sum.nbytes)
 
 
 @njit(cache=True, parallel=True)

@@ -42,7 +42,8 @@ class NeighborList:
     """Half Verlet list built from sparse (hashed) cells.
 
     Attributes after :meth:`build`: ``row_ptr`` (N+1,), ``nbr`` (P,), ``col_ptr`` (N+1,),
-    ``col_pair`` (P,), ``builds`` (count).
+    ``col_pair`` (P,), its inverse ``pair_col`` (P,), ``col_span`` (N, 2), ``builds``
+    (count); see :func:`~grainflow.kernels.neighbors.transpose_index`.
     """
 
     def __init__(self, skin: float, sort_every: int = 1) -> None:
@@ -55,6 +56,8 @@ class NeighborList:
         self.nbr = np.zeros(0, dtype=np.int64)
         self.col_ptr = np.zeros(1, dtype=np.int64)
         self.col_pair = np.zeros(0, dtype=np.int64)
+        self.pair_col = np.zeros(0, dtype=np.int64)
+        self.col_span = np.zeros((0, 2), dtype=np.int64)
         self._x_ref = np.zeros((0, 3))
         self._generation = -1
         self._capacity = 16
@@ -147,10 +150,16 @@ class NeighborList:
             state.x, state.radius, state.frozen, state.body, cell_of, table, cell_start,
             order.astype(np.int64), geom.length, geom.periodic, margin, self._capacity,
             bool(np.all(order == np.arange(n))))
-        self.col_ptr, self.col_pair = nk.transpose_index(self.row_ptr, self.nbr, state.n)
+        self.index_columns()
         self._x_ref = state.x.copy()
         self._generation = state.generation
         self.builds += 1
+
+    def index_columns(self) -> None:
+        """Derive the transpose (``col_ptr``, ``col_pair``, ``pair_col``, ``col_span``)."""
+        n = self.row_ptr.shape[0] - 1
+        self.col_ptr, self.col_pair, self.pair_col, self.col_span = nk.transpose_index(
+            self.row_ptr, self.nbr, n)
 
     def sort_due(self) -> bool:
         return self.sort_every > 0 and self.builds % self.sort_every == 0
@@ -162,4 +171,5 @@ class NeighborList:
     def nbytes(self) -> int:
         """Memory held by the list and its transpose."""
         return int(self.row_ptr.nbytes + self.nbr.nbytes + self.col_ptr.nbytes
-                   + self.col_pair.nbytes + self._x_ref.nbytes)
+                   + self.col_pair.nbytes + self.pair_col.nbytes + self.col_span.nbytes
+                   + self._x_ref.nbytes)

@@ -5,7 +5,8 @@ Order of work within one step of :meth:`Simulation.run` (the same for every set-
     1. integrator.pre_force        (VV: half kick + drift; AB2: the whole step)
     2. neighbour list: wrap periodic positions; rebuild if some particle moved > skin/2
        (every ``sort_every`` builds also re-sort particles in space, history carried along)
-    3. forces: zero, pair law over the list, then every operation in ``forces``
+    3. forces: pair law over the list (it sets force and torque; zero without a law), then
+       every operation in ``forces``
        (walls, tethers, gravity, drag ...) in the order they were added
     4. integrator.post_force       (VV: second half kick)
     5. step += 1, time += dt
@@ -30,7 +31,7 @@ from grainflow.engine.forces import Force, PairForce
 from grainflow.engine.integrators import Integrator, VelocityVerlet
 from grainflow.engine.neighbor_list import ListGeometry, NeighborList
 from grainflow.frame import Contacts, Frame
-from grainflow.kernels.pair_loop import max_pair_overlap
+from grainflow.kernels.pair_loop import max_pair_overlap, max_relative_overlap
 from grainflow.models.base import ContactLaw
 from grainflow.state import ParticleState
 
@@ -161,27 +162,28 @@ class Simulation:
         reach = self.pair.law.reach() if self.pair is not None else 0.0
         nl.wrap(st, self.geometry)
         cells = nl.cell_order(st, self.geometry, reach)
+        new_to_old = None
         if nl.sort_due() and st.n:
-            order = cells[2]
+            new_to_old = cells[2]
             old_to_new = np.empty(st.n, dtype=np.int64)
-            old_to_new[order] = np.arange(st.n)
+            old_to_new[new_to_old] = np.arange(st.n)
             st.reindex(old_to_new)
-            if self.pair is not None:
-                self.pair.reindex(old_to_new)
             cells = nl.in_new_order(cells)
         nl.build(st, self.geometry, cells)
         if self.pair is not None:
-            self.pair.attach(nl.row_ptr, nl.nbr)
+            # the pair history follows the re-sort and the rebuild in one pass
+            self.pair.attach(nl.row_ptr, nl.nbr, new_to_old)
         self.rebuilds += 1
 
     def compute_forces(self, update: bool = True) -> None:
         """Zero and recompute all forces and torques at the current positions."""
         st = self.state
         self._refresh_list()
-        st.force[:] = 0.0
-        st.torque[:] = 0.0
         if self.pair is not None:
-            self.pair.compute(self, update)
+            self.pair.compute(self, update)  # sets (not adds) force and torque
+        else:
+            st.force[:] = 0.0
+            st.torque[:] = 0.0
         for f in self.forces:
             f.compute(self, update)
         self.forces_current = True
@@ -266,6 +268,8 @@ class Simulation:
         """Raise :class:`InstabilityError` on non-finite state or excessive overlap."""
         st = self.state
         for name in ("x", "v", "omega"):
+            if np.isfinite(st.arrays[name]).all():
+                continue
             bad = ~np.isfinite(st.arrays[name]).all(axis=1)
             if bad.any():
                 i = int(np.argmax(bad))
@@ -287,15 +291,10 @@ class Simulation:
         nl = self.neighbors
         if nl.n_pairs == 0:
             return 0.0, 0
-        rows = np.repeat(np.arange(st.n), np.diff(nl.row_ptr))
-        d = st.x[rows] - st.x[nl.nbr]
         g = self.geometry
-        for a in np.nonzero(g.periodic)[0]:
-            d[:, a] -= g.length[a] * np.rint(d[:, a] / g.length[a])
-        ov = st.radius[rows] + st.radius[nl.nbr] - np.linalg.norm(d, axis=1)
-        rel = ov / np.minimum(st.radius[rows], st.radius[nl.nbr])
-        k = int(np.argmax(rel))
-        return float(rel[k]), int(rows[k])
+        rel, row = max_relative_overlap(nl.row_ptr, nl.nbr, st.x, st.radius, g.length,
+                                        g.periodic)
+        return float(rel), int(row)
 
     # ----------------------------------------------------------- outputs
     def contacts(self) -> Contacts:
@@ -359,8 +358,7 @@ class Simulation:
         nb = data["neighbors"]
         nl.row_ptr = np.asarray(nb["row_ptr"], dtype=np.int64)
         nl.nbr = np.asarray(nb["nbr"], dtype=np.int64)
-        nl.col_ptr = np.asarray(nb["col_ptr"], dtype=np.int64)
-        nl.col_pair = np.asarray(nb["col_pair"], dtype=np.int64)
+        nl.index_columns()  # the transpose is a function of the rows (saved for readers)
         nl._x_ref = np.asarray(nb["x_ref"], dtype=np.float64)
         nl.builds = int(nb["builds"])
         nl._generation = st.generation

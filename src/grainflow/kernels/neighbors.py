@@ -22,8 +22,12 @@ from numba import njit, prange
 
 @njit(cache=True)
 def minimum_image(d: float, length: float, periodic: bool) -> float:
-    """Displacement component folded into [-L/2, L/2] on a periodic axis."""
-    if periodic:
+    """Displacement component folded into [-L/2, L/2] on a periodic axis.
+
+    ``d - L rint(d / L)``, evaluated only when ``|d| > L/2`` (otherwise ``rint`` gives 0 and
+    ``d`` is returned unchanged): the division is skipped for almost every pair.
+    """
+    if periodic and abs(d) > 0.5 * length:
         return d - length * np.rint(d / length)
     return d
 
@@ -103,12 +107,18 @@ def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic,
 
     ``cell_coords`` (C, 3) are the integer coordinates of the occupied cells; ``offsets``
     (Q, 3) the stencil (27 cells in 3D, 9 in 2D, fewer on short periodic axes).
+
+    Consecutive stencil entries along the last axis usually have consecutive keys: then the
+    cell after the previous entry's cell is the only candidate (``cell_keys`` is sorted), so
+    the hash is consulted about once per run of three instead of once per entry.
     """
     slots, bits = cell_hash(cell_keys)
     nc = cell_keys.shape[0]
     nq = offsets.shape[0]
     table = np.empty((nc, nq), dtype=np.int64)
     for c in prange(nc):
+        prev_key = np.int64(-2)
+        prev_cell = -1
         for q in range(nq):
             key = np.int64(0)
             inside = True
@@ -123,7 +133,16 @@ def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic,
                 if ca < 0 or ca >= extent[a]:
                     inside = False
                 key = key * extent[a] + ca
-            table[c, q] = _lookup(slots, bits, cell_keys, key) if inside else -1
+            if not inside:
+                found = -1
+            elif key == prev_key + 1 and prev_cell >= 0:
+                nxt = prev_cell + 1
+                found = nxt if nxt < nc and cell_keys[nxt] == key else -1
+            else:
+                found = _lookup(slots, bits, cell_keys, key)
+            table[c, q] = found
+            prev_key = key if inside else np.int64(-2)
+            prev_cell = found
     return table
 
 
@@ -234,7 +253,13 @@ def build_half_list(x, radius, frozen, body, cell_of, table, cell_start, order, 
 
 @njit(cache=True)
 def transpose_index(row_ptr, nbr, n):
-    """For each particle, the pair slots where it is the second member (counting sort)."""
+    """For each particle, the pair slots where it is the second member (counting sort).
+
+    Returns ``col_ptr`` (N+1,) and ``col_pair`` (P,): the slots of particle j's column are
+    ``col_pair[col_ptr[j]:col_ptr[j + 1]]``, ascending; the inverse ``pair_col`` (P,), the
+    column position of each slot (``col_pair[pair_col[k]] == k``); and ``col_span`` (N, 2),
+    the first and last row in particle j's column (``n, -1`` for an empty column).
+    """
     col_ptr = np.zeros(n + 1, dtype=np.int64)
     for k in range(nbr.shape[0]):
         col_ptr[nbr[k] + 1] += 1
@@ -242,12 +267,19 @@ def transpose_index(row_ptr, nbr, n):
         col_ptr[i + 1] += col_ptr[i]
     fill = col_ptr[:-1].copy()
     col_pair = np.empty(nbr.shape[0], dtype=np.int64)
+    pair_col = np.empty(nbr.shape[0], dtype=np.int64)
+    col_span = np.empty((n, 2), dtype=np.int64)
+    col_span[:, 0] = n
+    col_span[:, 1] = -1
     for i in range(n):
         for k in range(row_ptr[i], row_ptr[i + 1]):
             j = nbr[k]
             col_pair[fill[j]] = k
+            pair_col[k] = fill[j]
             fill[j] += 1
-    return col_ptr, col_pair
+            col_span[j, 0] = min(col_span[j, 0], i)
+            col_span[j, 1] = i
+    return col_ptr, col_pair, pair_col, col_span
 
 
 @njit(cache=True, parallel=True)
@@ -272,6 +304,48 @@ def carry_history(old_ptr, old_nbr, old_hist, new_ptr, new_nbr, new_hist):
             else:
                 for h in range(width):
                     new_hist[k, h] = 0.0
+
+
+@njit(cache=True, parallel=True)
+def carry_history_permuted(old_ptr, old_nbr, old_hist, new_to_old, flip, new_ptr, new_nbr,
+                           new_hist, active):
+    """Carry per-pair history across a re-sort of the particles and a list rebuild at once.
+
+    The old list (rows sorted ascending, ``i < j``) is in the old particle indexing, the new
+    one in the new indexing, ``new_to_old[a]`` the old index of new particle ``a``. The new
+    pair ``(a, b)`` is the old pair ``(p, q) = (new_to_old[a], new_to_old[b])``, looked up in
+    old row ``min(p, q)``; when ``p > q`` the components with ``flip = -1`` change sign (as
+    in :func:`reindex_pairs`). Pairs absent from the old list, or with an all-zero history
+    there, start with zero history. ``active[k]`` is set to 1 where the carried history is
+    non-zero, else 0.
+    """
+    n = new_ptr.shape[0] - 1
+    n_old = old_ptr.shape[0] - 1
+    width = new_hist.shape[1]
+    for a in prange(n):
+        pa = new_to_old[a]
+        for k in range(new_ptr[a], new_ptr[a + 1]):
+            pb = new_to_old[new_nbr[k]]
+            lo = min(pa, pb)
+            hi = max(pa, pb)
+            found = -1
+            if lo < n_old:
+                for s in range(old_ptr[lo], old_ptr[lo + 1]):
+                    if old_nbr[s] >= hi:
+                        if old_nbr[s] == hi:
+                            found = s
+                        break
+            nonzero = False
+            if found >= 0:
+                for h in range(width):
+                    if old_hist[found, h] != 0.0:
+                        nonzero = True
+            for h in range(width):
+                value = 0.0
+                if nonzero:
+                    value = old_hist[found, h] if pa < pb else flip[h] * old_hist[found, h]
+                new_hist[k, h] = value
+            active[k] = 1 if nonzero else 0
 
 
 @njit(cache=True)

@@ -41,7 +41,7 @@ from grainflow.models.base import ContactLaw, require
 KN, KT, GAMMA_N, GAMMA_T, MU, FC, DELTA_C, MASS_DAMPING = range(8)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined into the pair loop (kernels.pair_loop)
 def granular_evaluate(tab, ti, tj, dx, dy, dz, rsq, radi, radj, vr1, vr2, vr3, wi1, wi2, wi3, wj1, wj2,
                       wj3, meff, hist, k, dt, update):
     """Force on i and torque vector for one pair (see module docstring)."""
