@@ -115,6 +115,11 @@ class HopperSection(BaseModel):
     reinsert_depth: float = Field(2.0, gt=0, description="reinsert after falling this many own "
                                   "diameters below the orifice (seed: 2)")
     reinsert_every: int = Field(10, ge=1, description="steps between crossing checks")
+    reinsert_bulk_contacts: int | None = Field(None, ge=0, description="a reinserted grain's "
+                                               "partner must touch or nearly touch this many "
+                                               "grains (a 'bulk particle' of the seed); "
+                                               "default d + 1; 0: the highest grain of the "
+                                               "column (docs/hopper_study.md)")
     dt_fraction: float = Field(0.05, gt=0, le=0.25, description="dt = dt_fraction * t_c (pairs "
                                "and walls) unless run.dt is given")
 
@@ -223,7 +228,9 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     if zeta > 0:
         sim.add_force(Drag(section.drag_factor * zeta))
     updater = HopperReinsertion(dim, 0.0, np.zeros(dim - 1), width,
-                                depth=section.reinsert_depth)
+                                depth=section.reinsert_depth,
+                                bulk_contacts=dim + 1 if section.reinsert_bulk_contacts
+                                is None else section.reinsert_bulk_contacts)
     updater.setup_state(sim)
     sim.add_updater(updater, section.reinsert_every)
     return sim

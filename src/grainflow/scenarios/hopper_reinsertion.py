@@ -43,6 +43,9 @@ if TYPE_CHECKING:
 
 #: Name of the per-particle flag "crossed the orifice, not yet reinserted".
 OUT_FLAG = "hopper_out"
+#: Surface gap, as a fraction of the smaller diameter, within which two grains count as
+#: neighbours for ``bulk_contacts`` (touching, or about to touch).
+NEAR_GAP = 0.1
 #: Columns of ``events.csv``.
 EVENT_COLUMNS = ("time", "id", "size")
 
@@ -63,11 +66,15 @@ class HopperReinsertion:
     centre : lateral centre of the hopper (x in 2D, (x, y) in 3D).
     width : side-wall separation W (2D) or cylinder diameter (3D).
     depth : reinsert once ``h < h_o - depth * 2 r`` (seed: 2 diameters).
+    bulk_contacts : a partner must touch or nearly touch (gap < ``NEAR_GAP`` diameters) at
+        least this many grains: one of the seed's "bulk particles", not a grain still raining
+        onto the pile; 0 lets any grain of the column be the partner.
     max_attempts : lateral positions tried per grain before giving up.
     """
 
     def __init__(self, dim: int, orifice_height: float, centre: np.ndarray | float,
-                 width: float, *, depth: float = 2.0, max_attempts: int = 1000) -> None:
+                 width: float, *, depth: float = 2.0, bulk_contacts: int = 0,
+                 max_attempts: int = 1000) -> None:
         if dim not in (2, 3):
             raise ValueError(f"dim: {dim!r}; expected 2 or 3")
         if not width > 0:
@@ -80,6 +87,9 @@ class HopperReinsertion:
         self.centre = np.atleast_1d(np.asarray(centre, dtype=float)).reshape(dim - 1)
         self.half_width = 0.5 * float(width)
         self.depth = float(depth)
+        if bulk_contacts < 0:
+            raise ValueError(f"bulk_contacts: {bulk_contacts!r}; expected a count >= 0")
+        self.bulk_contacts = int(bulk_contacts)
         self.max_attempts = int(max_attempts)
         self._times: list[float] = []
         self._ids: list[int] = []
@@ -121,31 +131,66 @@ class HopperReinsertion:
             self._ids.extend(st.id[crossed].tolist())
             self._sizes.extend(grain_size(st.radius[crossed], self.dim).tolist())
         due = np.flatnonzero((out == 1) & (h < self.orifice_height - self.depth * 2.0 * st.radius))
+        if due.size:
+            contacts = self._contact_numbers(sim)
         for i in due:
-            self._reinsert(sim, int(i))
+            self._reinsert(sim, int(i), contacts)
             out[i] = 0
         if due.size:
             self.reinserted += int(due.size)
             sim.forces_current = False
 
-    def _reinsert(self, sim: "Simulation", i: int) -> None:
+    def _contact_numbers(self, sim: "Simulation") -> np.ndarray:
+        """Per grain, the number of grains it touches or nearly touches (surface gap below
+        ``NEAR_GAP`` of its own diameter); zeros unless ``bulk_contacts`` asks for them."""
+        from scipy.spatial import cKDTree
+
         st = sim.state
-        ax = self.axis
-        lat = [a for a in range(self.dim) if a != ax]
+        if self.bulk_contacts == 0 or st.n < 2:
+            return np.zeros(st.n, dtype=np.int64)
+        pairs = cKDTree(st.x).query_pairs(2.0 * float(st.radius.max()) * (1.0 + NEAR_GAP),
+                                          output_type="ndarray")
+        i, j = pairs[:, 0], pairs[:, 1]
+        gap = np.linalg.norm(st.x[i] - st.x[j], axis=1) - (st.radius[i] + st.radius[j])
+        near = gap < NEAR_GAP * 2.0 * np.minimum(st.radius[i], st.radius[j])
+        return np.bincount(np.concatenate([i[near], j[near]]), minlength=st.n)
+
+    def _reinsert(self, sim: "Simulation", i: int, contacts: np.ndarray) -> None:
+        """Place grain ``i`` on the pile: on a bulk partner if ``bulk_contacts`` asks and one
+        is free above, else on the highest grain of a column (module docstring, step 2)."""
+        st = sim.state
         r = float(st.radius[i])
-        pile = st.x[:, ax] > self.orifice_height
-        pile[i] = False
-        idx = np.flatnonzero(pile)
-        if idx.size == 0:
-            raise RuntimeError("hopper reinsertion: no grain left above the orifice to place "
-                               f"grain id {int(st.id[i])} on")
-        lateral = st.x[np.ix_(idx, lat)]
-        reach = r + st.radius[idx]
         span = self.half_width - r
         if span <= 0:
             raise ValueError(f"hopper reinsertion: grain radius {r:g} does not fit in the "
                              f"hopper (half width {self.half_width:g})")
-        for _ in range(self.max_attempts):
+        others = np.ones(st.n, dtype=bool)
+        others[i] = False
+        pile = (st.x[:, self.axis] > self.orifice_height) & others
+        if not pile.any():
+            raise RuntimeError("hopper reinsertion: no grain left above the orifice to place "
+                               f"grain id {int(st.id[i])} on")
+        if self.bulk_contacts and self._place(sim, i, span, pile & (contacts >= self.bulk_contacts),
+                                              others):
+            return
+        if not self._place(sim, i, span, pile, None):
+            raise RuntimeError(f"hopper reinsertion: no column with grains found for grain id "
+                               f"{int(st.id[i])} in {self.max_attempts} lateral positions")
+
+    def _place(self, sim: "Simulation", i: int, span: float, pool: np.ndarray,
+               check: np.ndarray | None) -> bool:
+        """Try ``max_attempts`` lateral positions: touch the grain of ``pool`` with the highest
+        contact height in that column and take its velocity. With ``check`` (the grains other
+        than i) a position that overlaps any of them is refused; without, the highest grain of
+        the column is above all others, so there is no overlap to check."""
+        st = sim.state
+        ax = self.axis
+        lat = [a for a in range(self.dim) if a != ax]
+        r = float(st.radius[i])
+        idx = np.flatnonzero(pool)
+        lateral = st.x[np.ix_(idx, lat)]
+        reach = r + st.radius[idx]
+        for _ in range(self.max_attempts if idx.size else 0):
             p = self._lateral_sample(sim.rng, span)
             l2 = np.sum((lateral - p) ** 2, axis=1)
             column = np.flatnonzero(l2 < reach**2)
@@ -154,14 +199,23 @@ class HopperReinsertion:
             heights = st.x[idx[column], ax] + np.sqrt(reach[column] ** 2 - l2[column])
             k = int(np.argmax(heights))
             j = idx[column[k]]
-            st.x[i, :] = 0.0
-            st.x[i, lat] = p
-            st.x[i, ax] = heights[k]
+            target = np.zeros(st.x.shape[1])
+            target[lat] = p
+            target[ax] = heights[k]
+            if check is not None and self._overlaps(st, target, r, check, j):
+                continue  # a grain still raining onto the bulk partner is in the way
+            st.x[i, :] = target
             st.v[i, :] = st.v[j, :]
             st.omega[i, :] = 0.0
-            return
-        raise RuntimeError(f"hopper reinsertion: no column with grains found for grain id "
-                           f"{int(st.id[i])} in {self.max_attempts} lateral positions")
+            return True
+        return False
+
+    @staticmethod
+    def _overlaps(st: Any, target: np.ndarray, r: float, others: np.ndarray, partner: int) -> bool:
+        """Whether a grain of radius ``r`` at ``target`` overlaps any grain but its partner."""
+        gap = np.linalg.norm(st.x[others] - target, axis=1) - (r + st.radius[others])
+        gap[np.flatnonzero(others)[:] == partner] = np.inf
+        return bool(np.any(gap < 0.0))
 
     def _lateral_sample(self, rng: np.random.Generator, span: float) -> np.ndarray:
         """Uniform point of the cross-section inset by the grain radius."""

@@ -112,7 +112,7 @@ def _collect(sweepdir: Path) -> dict[float, _Series]:
                 s.w.append(float(row.params["hopper.orifice_width"]))
                 s.Q.append(row.summary["Q"])
                 s.Q_err.append(max(row.summary["Q_err"], 1e-12))
-                s.rundirs.append(row.rundir)
+                s.rundirs.append(str(sweepdir / row.rundir))  # catalog paths: sweep-relative
             s.cpu += float(row.wall_time or 0.0)
     return series
 
@@ -195,7 +195,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
             plot_velocity_profiles(profiles, widths, out / "vg_profiles.png")
             lines.append("![v_g(h)](vg_profiles.png)")
         if results["q2d"][math.inf].rundirs:
-            lines.append(f"![snapshot]({Path(results['q2d'][math.inf].rundirs[-1]) / 'final.png'})")
+            final = Path(results["q2d"][math.inf].rundirs[-1]) / "final.png"
+            lines.append(f"![snapshot]({final.relative_to(out)})")
 
     lines += ["", "| quantity | seed | ours | run cost (CPU s) |", "|---|---|---|---|"]
 
@@ -215,6 +216,21 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         row(f"hard-particle C, λ={lam:g}", ("C", 2, lam), "hard2d", "C")
     lines.append(f"| 2D λ_c | 0.05 | "
                  f"{_fmt(sigmoid.lambda_c, sigmoid.lambda_c_err) if sigmoid else 'not fit'} | |")
+    lines += ["", "All Beverloo fits Q = C (w - k)^beta (fit uncertainties, 1 sigma):", "",
+              "| sweep | λ | widths | C | k | β | χ²/dof |", "|---|---|---|---|---|---|---|"]
+    for name, series_fits in fits.items():
+        for lam, fit in series_fits.items():
+            widths = ", ".join(f"{w:g}" for w in fit.x)
+            chi = fit.chi2 / fit.dof if fit.dof > 0 else float("nan")
+            lines.append(f"| {name} | {lam:g} | {widths} | {_fmt(fit.C, fit.C_err)} | "
+                         f"{_fmt(fit.k, fit.k_err)} | {_fmt(fit.beta, fit.beta_err)} | "
+                         f"{_fmt(chi)} |")
+    lines += ["", "Measured flow rates (area/volume per t0, steady window by MSER):", "",
+              "| sweep | λ | w | Q | ± |", "|---|---|---|---|---|"]
+    for name, series in results.items():
+        for lam, ser in sorted(series.items()):
+            for w, q, e in sorted(zip(ser.w, ser.Q, ser.Q_err)):
+                lines.append(f"| {name} | {lam:g} | {w:g} | {q:.4g} | {e:.2g} |")
     total = sum(s.cpu for series in results.values() for s in series.values())
     lines += ["", f"Total run time of the points: {total:.0f} s.", ""]
     report = out / "report.md"
