@@ -1,5 +1,13 @@
-"""Validation (slow, ``-m validation``): a short real 2D Q(w) in the lambda -> inf limit and its
-Beverloo exponent against seed 003 (beta = d - 3/2 = 1/2, issue tolerance +/- 0.15)."""
+"""Validation (slow, ``-m validation``, about 10 minutes on 2 cores): short real 2D Q(w)
+series and their Beverloo exponents against seed 003 (issue tolerance +/- 0.15 in 2D).
+
+- drag limit (lambda -> inf): beta = d - 3/2 = 1/2;
+- friction limit (lambda -> 0): beta = d - 1/2 = 3/2. Known discrepancy: we measure beta near
+  2.2-2.5 (docs/hopper_study.md, "Friction limit"); marked xfail(strict) so that a fix shows;
+- the time step and the reinsertion rule (bulk partner or top of the column) are choices
+  where the seed is unreadable: halving dt must leave Q unchanged, and the two reinsertion
+  rules must give the same beta within the fits' uncertainties.
+"""
 
 from __future__ import annotations
 
@@ -8,16 +16,18 @@ import math
 import numpy as np
 import pytest
 
-from grainflow.analysis.hopper import fit_beverloo, flow_rate_from_events
+from grainflow.analysis.hopper import BeverlooFit, fit_beverloo, flow_rate_from_events
 from grainflow.scenarios.hopper import HopperSection, build_hopper, hopper_updater, prepare
 
 pytestmark = pytest.mark.validation
 
+WIDTHS = [4.0, 6.0, 8.0, 10.0]
 
-def _flow_rate(w: float, duration: float, dt_scale: float = 1.0) -> tuple[float, float]:
-    section = HopperSection(n=1600, orifice_width=w, E_sp=1000.0, E_w=1000.0, lam=math.inf,
-                            dt_fraction=0.05 * dt_scale)
-    sim = build_hopper(section, 2, seed=0)
+
+def _flow_rate(w: float, duration: float, dt_scale: float = 1.0, **section) -> tuple[float, float]:
+    params = dict(n=1600, orifice_width=w, E_sp=1000.0, E_w=1000.0, lam=math.inf,
+                  dt_fraction=0.05 * dt_scale)
+    sim = build_hopper(HopperSection(**{**params, **section}), 2, seed=0)
     prepare(sim)
     sim.run(int(math.ceil(duration / sim.dt)))
     up = hopper_updater(sim)
@@ -25,14 +35,31 @@ def _flow_rate(w: float, duration: float, dt_scale: float = 1.0) -> tuple[float,
     return flow.flow_rate, flow.flow_rate_err
 
 
+def _beverloo(duration: float, **section) -> BeverlooFit:
+    rates = [_flow_rate(w, duration, **section) for w in WIDTHS]
+    return fit_beverloo(WIDTHS, [q for q, _ in rates], Q_err=[e for _, e in rates])
+
+
 def test_beverloo_exponent_drag_limit_2d() -> None:
-    widths = [4.0, 6.0, 8.0, 10.0]
-    rates = [_flow_rate(w, 300.0) for w in widths]
-    fit = fit_beverloo(widths, [q for q, _ in rates], Q_err=[e for _, e in rates])
-    assert abs(fit.beta - 0.5) <= 0.15, (fit, rates)
+    fit = _beverloo(300.0)
+    assert abs(fit.beta - 0.5) <= 0.15, fit
+
+
+@pytest.mark.xfail(strict=True, reason="known discrepancy: beta ~ 2.2-2.5 in the friction "
+                   "limit against the seed's 3/2 (docs/hopper_study.md)")
+def test_beverloo_exponent_friction_limit_2d() -> None:
+    fit = _beverloo(150.0, lam=0.0)
+    assert abs(fit.beta - 1.5) <= 0.15, fit
 
 
 def test_halving_dt_keeps_flow_rate() -> None:
     q1, e1 = _flow_rate(8.0, 300.0)
     q2, e2 = _flow_rate(8.0, 300.0, dt_scale=0.5)
     assert abs(q1 - q2) <= 3.0 * np.hypot(e1, e2), (q1, e1, q2, e2)
+
+
+def test_reinsertion_rule_does_not_change_beta() -> None:
+    bulk = _beverloo(300.0, reinsert_bulk_contacts=3)
+    column = _beverloo(300.0, reinsert_bulk_contacts=0)
+    assert abs(bulk.beta - column.beta) <= 2.0 * np.hypot(bulk.beta_err, column.beta_err), (
+        bulk, column)
