@@ -407,13 +407,13 @@ def _overlap_corrected(rundir: Path, flow: "FlowRate", dim: int, w: float) -> di
 
 # ------------------------------------------------------------------------------- demo
 def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: float = 10.0,
-         duration: float = 300.0, E_sp: float = 1000.0, E_w: float = 1000.0, seed: int = 0,
+         duration: float = 600.0, E_sp: float = 1000.0, E_w: float = 1000.0, seed: int = 0,
          quiet: bool = False) -> "FlowRate":
     """A 2D hopper discharge in the lambda -> inf limit; about a minute on 2 cores.
 
-    ``n`` grains, a wide orifice (w = 10 sigma_avg), ``duration`` t0 of flow (the settling
-    of the loose initial fill under drag, the transient that the analysis discards, takes
-    about 120 t0), E_sp = E_w = 1000 (moderately stiff grains; walls no stiffer than the
+    ``n`` grains, a wide orifice (w = 10 sigma_avg), ``duration`` t0 of flow (the drag-limited
+    pile turns over slowly: the rate settles only after about 300 t0, a transient that the
+    analysis detects and discards), E_sp = E_w = 1000 (moderately stiff grains; walls no stiffer than the
     grains, so that the wall contact time does not shorten dt, see
     :func:`hopper_contact_time`). Prints Q with its error bar in Q0 = sigma_avg^2/t0,
     writes ``snapshot.png``, ``flow_rate.png`` and ``events.csv`` into ``out_dir`` (default
