@@ -1,4 +1,4 @@
-"""Validation (slow, ``-m validation``, about 15 minutes on 2 cores): short real 2D Q(w)
+"""Validation (slow, ``-m validation``, about 18 minutes on 2 cores): short real 2D Q(w)
 series and their Beverloo exponents against seed 003 (issue tolerance +/- 0.15 in 2D).
 
 - drag limit (lambda -> inf): beta = d - 3/2 = 1/2;

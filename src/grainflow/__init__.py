@@ -24,9 +24,13 @@ _EXPORTS = {
     "Frame": "grainflow.frame",
     "Contacts": "grainflow.frame",
     "GranularLaw": "grainflow.models.granular",
+    "stiffness_and_damping": "grainflow.models.granular",
+    "restitution_and_contact_time": "grainflow.models.granular",
     "SoftLaw": "grainflow.models.soft",
     "Gravity": "grainflow.engine.forces",
     "Drag": "grainflow.engine.forces",
+    "WallForce": "grainflow.walls",
+    "Tethers": "grainflow.engine.tethers",
     "VelocityVerlet": "grainflow.engine.integrators",
     "AdamsBashforth2": "grainflow.engine.integrators",
     "minimize_fire": "grainflow.engine.integrators",
@@ -39,10 +43,15 @@ _EXPORTS = {
     "RunSummary": "grainflow.runner",
 }
 
-__all__ = ["__version__", *_EXPORTS]
+#: Subpackages reachable as attributes (``gf.walls.Plane``), also imported on first use.
+_SUBPACKAGES = ("walls", "insertion", "analysis", "scenarios", "io", "plotting", "sweep")
+
+__all__ = ["__version__", *_EXPORTS, *_SUBPACKAGES]
 
 
 def __getattr__(name: str) -> Any:
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f"grainflow.{name}")
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'grainflow' has no attribute {name!r}")
