@@ -272,16 +272,6 @@ def active_pairs(row_ptr, nbr, f_pair, active):
     return pi, pj, slot
 
 
-@njit(cache=True, inline="always")
-def _distance(x, i, j, box_len, periodic):
-    """Centre distance |x_i - x_j| with the minimum image on periodic axes."""
-    rsq = 0.0
-    for a in range(3):
-        d = minimum_image(x[i, a] - x[j, a], box_len[a], periodic[a])
-        rsq += d * d
-    return np.sqrt(rsq)
-
-
 @njit(cache=True, parallel=True)
 def max_pair_overlap(row_ptr, nbr, x, radius, box_len, periodic):
     """Largest overlap ``r_i + r_j - |d|`` over listed pairs (0 if none overlap)."""
@@ -289,7 +279,11 @@ def max_pair_overlap(row_ptr, nbr, x, radius, box_len, periodic):
     for i in prange(row_ptr.shape[0] - 1):
         for k in range(row_ptr[i], row_ptr[i + 1]):
             j = nbr[k]
-            best = max(best, radius[i] + radius[j] - _distance(x, i, j, box_len, periodic))
+            rsq = 0.0
+            for a in range(3):
+                d = minimum_image(x[i, a] - x[j, a], box_len[a], periodic[a])
+                rsq += d * d
+            best = max(best, radius[i] + radius[j] - np.sqrt(rsq))
     return best
 
 
@@ -304,8 +298,11 @@ def max_relative_overlap(row_ptr, nbr, x, radius, box_len, periodic):
     for i in range(row_ptr.shape[0] - 1):
         for k in range(row_ptr[i], row_ptr[i + 1]):
             j = nbr[k]
-            overlap = radius[i] + radius[j] - _distance(x, i, j, box_len, periodic)
-            rel = overlap / min(radius[i], radius[j])
+            rsq = 0.0
+            for a in range(3):
+                d = minimum_image(x[i, a] - x[j, a], box_len[a], periodic[a])
+                rsq += d * d
+            rel = (radius[i] + radius[j] - np.sqrt(rsq)) / min(radius[i], radius[j])
             if rel > best:
                 best = rel
                 row = i
