@@ -111,9 +111,9 @@ def _numeric_table(path: Path, section: str, rows: list[str]) -> np.ndarray:
     counts = [len(r.split()) for r in rows]
     if len(set(counts)) > 1:
         width = max(set(counts), key=counts.count)  # the most common line length
-        bad = next(r for r, c in zip(rows, counts) if c != width)
-        raise ValueError(f"{path}: {section} line '{bad}' has {len(bad.split())} columns, the "
-                         f"others {width}")
+        bad, n_bad = next((r, c) for r, c in zip(rows, counts) if c != width)
+        raise ValueError(f"{path}: {section} line '{bad}' has {n_bad} columns, the others "
+                         f"{width}")
     try:
         return np.array([r.split() for r in rows], dtype=float).reshape(len(rows), -1)
     except ValueError as exc:

@@ -17,9 +17,9 @@ Model (SPEC M3): bidisperse 50:50 disks/spheres, sigma_l/sigma_s = 1.4 (particle
 small, 1 = large; the walls are type 2). Pair energy (eps_sp/2)(1 - r/sigma_mn)^2, wall energy
 (eps_w/2)(1 - 2 d_w/sigma_m)^2, both through :class:`~grainflow.models.soft.SoftLaw`; drag
 F = -f_d zeta v (:class:`~grainflow.engine.forces.Drag`; f_d = ``drag_factor`` = 16 by
-default, see :class:`HopperSection`: our reading of the illegible eq. 5); kinetic friction -mu sum (v_m - v_n)
-between touching grains (not with walls). lambda = zeta/mu; the seed's limits are
-lambda -> 0: mu/mu0 = 10 sqrt(10), zeta = 0 and lambda -> inf: zeta/zeta0 = 1/sqrt(10),
+default, see :class:`HopperSection`: our reading of the illegible eq. 5); kinetic friction
+-mu sum (v_m - v_n) between touching grains (not with walls). lambda = zeta/mu; the seed's
+limits are lambda -> 0: mu/mu0 = 10 sqrt(10), zeta = 0 and lambda -> inf: zeta/zeta0 = 1/sqrt(10),
 mu = 0. For finite lambda the seed gives no magnitudes; we interpolate between the limits::
 
     mu = mu_0lim / (1 + lambda/lambda*),  zeta = zeta_inflim (lambda/lambda*) / (1 + lambda/lambda*),
@@ -227,10 +227,10 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     sim.add_force(Gravity(g))
     if zeta > 0:
         sim.add_force(Drag(section.drag_factor * zeta))
+    bulk_contacts = section.reinsert_bulk_contacts
     updater = HopperReinsertion(dim, 0.0, np.zeros(dim - 1), width,
                                 depth=section.reinsert_depth,
-                                bulk_contacts=dim + 1 if section.reinsert_bulk_contacts
-                                is None else section.reinsert_bulk_contacts)
+                                bulk_contacts=dim + 1 if bulk_contacts is None else bulk_contacts)
     updater.setup_state(sim)
     sim.add_updater(updater, section.reinsert_every)
     return sim
@@ -413,8 +413,8 @@ def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: flo
 
     ``n`` grains, a wide orifice (w = 10 sigma_avg), ``duration`` t0 of flow (the drag-limited
     pile turns over slowly: the rate settles only after about 300 t0, a transient that the
-    analysis detects and discards), E_sp = E_w = 1000 (moderately stiff grains; walls no stiffer than the
-    grains, so that the wall contact time does not shorten dt, see
+    analysis detects and discards), E_sp = E_w = 1000 (moderately stiff grains; walls no
+    stiffer than the grains, so that the wall contact time does not shorten dt, see
     :func:`hopper_contact_time`). Prints Q with its error bar in Q0 = sigma_avg^2/t0,
     writes ``snapshot.png``, ``flow_rate.png`` and ``events.csv`` into ``out_dir`` (default
     ``./grainflow-demo``) and returns the :class:`~grainflow.analysis.hopper.FlowRate`.

@@ -142,7 +142,7 @@ class HopperReinsertion:
 
     def _contact_numbers(self, sim: "Simulation") -> np.ndarray:
         """Per grain, the number of grains it touches or nearly touches (surface gap below
-        ``NEAR_GAP`` of its own diameter); zeros unless ``bulk_contacts`` asks for them."""
+        ``NEAR_GAP`` of the smaller diameter); zeros unless ``bulk_contacts`` asks for them."""
         from scipy.spatial import cKDTree
 
         st = sim.state
@@ -164,25 +164,24 @@ class HopperReinsertion:
         if span <= 0:
             raise ValueError(f"hopper reinsertion: grain radius {r:g} does not fit in the "
                              f"hopper (half width {self.half_width:g})")
-        others = np.ones(st.n, dtype=bool)
-        others[i] = False
-        pile = (st.x[:, self.axis] > self.orifice_height) & others
+        pile = st.x[:, self.axis] > self.orifice_height
+        pile[i] = False
         if not pile.any():
             raise RuntimeError("hopper reinsertion: no grain left above the orifice to place "
                                f"grain id {int(st.id[i])} on")
-        if self.bulk_contacts and self._place(sim, i, span, pile & (contacts >= self.bulk_contacts),
-                                              others):
+        bulk = pile & (contacts >= self.bulk_contacts)
+        if self.bulk_contacts and self._place(sim, i, span, bulk, check_overlaps=True):
             return
-        if not self._place(sim, i, span, pile, None):
+        if not self._place(sim, i, span, pile, check_overlaps=False):
             raise RuntimeError(f"hopper reinsertion: no column with grains found for grain id "
                                f"{int(st.id[i])} in {self.max_attempts} lateral positions")
 
-    def _place(self, sim: "Simulation", i: int, span: float, pool: np.ndarray,
-               check: np.ndarray | None) -> bool:
+    def _place(self, sim: "Simulation", i: int, span: float, pool: np.ndarray, *,
+               check_overlaps: bool) -> bool:
         """Try ``max_attempts`` lateral positions: touch the grain of ``pool`` with the highest
-        contact height in that column and take its velocity. With ``check`` (the grains other
-        than i) a position that overlaps any of them is refused; without, the highest grain of
-        the column is above all others, so there is no overlap to check."""
+        contact height in that column and take its velocity. With ``check_overlaps`` a
+        position that overlaps any other grain is refused; for a pool of all grains the
+        column's highest grain is above every other, so there is nothing to check."""
         st = sim.state
         ax = self.axis
         lat = [a for a in range(self.dim) if a != ax]
@@ -202,7 +201,7 @@ class HopperReinsertion:
             target = np.zeros(st.x.shape[1])
             target[lat] = p
             target[ax] = heights[k]
-            if check is not None and self._overlaps(st, target, r, check, j):
+            if check_overlaps and self._overlaps(st, target, r, i, j):
                 continue  # a grain still raining onto the bulk partner is in the way
             st.x[i, :] = target
             st.v[i, :] = st.v[j, :]
@@ -211,10 +210,11 @@ class HopperReinsertion:
         return False
 
     @staticmethod
-    def _overlaps(st: Any, target: np.ndarray, r: float, others: np.ndarray, partner: int) -> bool:
-        """Whether a grain of radius ``r`` at ``target`` overlaps any grain but its partner."""
-        gap = np.linalg.norm(st.x[others] - target, axis=1) - (r + st.radius[others])
-        gap[np.flatnonzero(others)[:] == partner] = np.inf
+    def _overlaps(st: Any, target: np.ndarray, r: float, i: int, partner: int) -> bool:
+        """Whether grain ``i`` (radius ``r``) at ``target`` would overlap any grain but its
+        partner (which it touches by construction)."""
+        gap = np.linalg.norm(st.x - target, axis=1) - (r + st.radius)
+        gap[[i, partner]] = np.inf
         return bool(np.any(gap < 0.0))
 
     def _lateral_sample(self, rng: np.random.Generator, span: float) -> np.ndarray:

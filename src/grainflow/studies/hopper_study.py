@@ -57,7 +57,8 @@ SEED = {("beta", 2, 0.0): 1.5, ("beta", 2, math.inf): 0.5, ("beta", 3, 0.0): 2.5
 
 def _base(dim: int, plan: StudyPlan, E_sp: float) -> dict[str, Any]:
     hopper: dict[str, Any] = {"n": plan.n_2d if dim == 2 else plan.n_3d, "orifice_width": 6.0,
-                              "E_sp": E_sp, "E_w": max(plan.wall_E, E_sp), "lam": math.inf, "dt_fraction": 0.05}
+                              "E_sp": E_sp, "E_w": max(plan.wall_E, E_sp), "lam": math.inf,
+                              "dt_fraction": 0.05}
     if dim == 3 and plan is REDUCED:
         hopper["width"] = 20.0 * SIGMA_SMALL
     duration = plan.duration_2d if dim == 2 else plan.duration_3d
@@ -138,7 +139,8 @@ def _profiles(series: _Series, dim: int) -> tuple[list[Any], list[float]]:
         path = Path(rundir) / "frames.h5"
         if not path.is_file():
             continue
-        frames = list(read_frames(path))[len(list(read_frames(path))) // 3:]
+        frames = list(read_frames(path))
+        frames = frames[len(frames) // 3:]  # the last two thirds: past the transient
         if frames:
             profiles.append(centreline_velocity_profile_from_frames(
                 frames, np.linspace(0.0, 20.0, 81), np.zeros(dim), sigma=1.0))
