@@ -1,15 +1,19 @@
 """Peer benchmark: LAMMPS's granular chute flow, grainflow against LAMMPS on this machine.
 
 Runs the chute (32,000 spheres, gran/hooke/history, frozen base, gravity tilted 26 degrees;
-``../shared/peers/in.chute`` and ``data.chute``) for ``--steps`` steps with grainflow on 1 and
-2 threads and, in the same run, LAMMPS (Debian's ``lmp``) on 1 and 2 MPI ranks with the same
-deck; then the cost per particle-step of grainflow at about 8k, 32k and 128k grains (the chute
-cut to a quarter, as is, and replicated 2 x 2), the memory held per particle, and the start-up
-time (import + compile from numba's cache). Prints a table and, as its last line, JSON.
+``in.chute`` and ``data.chute.gz`` shipped in ``grainflow/data/chute``) for ``--steps`` steps
+with grainflow on 1 and 2 threads and, in the same run, LAMMPS (Debian's ``lmp``) on 1 and 2
+MPI ranks with the same deck; then the cost per particle-step of grainflow at about 8k, 32k
+and 128k grains (the chute cut to a quarter, as is, and replicated 2 x 2), the memory held per
+particle, and the start-up time (import + compile from numba's cache). Prints a table and, as
+its last line, JSON.
 
 Usage::
 
-    python benchmarks/chute.py [--steps 2000] [--peers ../shared/peers] [--skip-lammps]
+    python benchmarks/chute.py [--steps 2000] [--peers DIR] [--skip-lammps]
+
+``--peers DIR`` takes the files from another folder holding ``in.chute`` and ``data.chute``
+(or ``data.chute.gz``); LAMMPS gets the data file decompressed in a temporary folder.
 
 Each grainflow figure is measured in a fresh subprocess (so the thread count is set before
 numba starts) after 50 warm-up steps; LAMMPS's figure is its own "Loop time".
@@ -18,6 +22,7 @@ numba starts) after 50 warm-up steps; LAMMPS's figure is its own "Loop time".
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import os
 import platform
@@ -28,9 +33,6 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-
-REPO = Path(__file__).resolve().parents[1]
-DEFAULT_PEERS = REPO.parent / "shared" / "peers"
 
 WORKER = r"""
 import json, sys, time
@@ -83,14 +85,32 @@ def run_grainflow(data: Path, steps: int, threads: int, size: str = "1x1") -> di
     return res
 
 
-def run_lammps(peers: Path, steps: int, ranks: int) -> dict:
+def benchmark_files(peers: Path | None) -> tuple[Path, Path]:
+    """``(data file, in.chute)``: the shipped copies, or those in ``peers``."""
+    if peers is None:
+        from grainflow.scenarios.chute import chute_files
+
+        files = chute_files()
+        return files.data, files.deck
+    data = next((p for p in (peers / "data.chute", peers / "data.chute.gz") if p.is_file()),
+                peers / "data.chute")
+    return data, peers / "in.chute"
+
+
+def run_lammps(data: Path, deck_path: Path, steps: int, ranks: int) -> dict:
     lmp = shutil.which("lmp") or shutil.which("lmp_serial")
     if lmp is None:
         raise FileNotFoundError("LAMMPS binary 'lmp' not found: apt-get install lammps")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        shutil.copy(peers / "data.chute", tmp / "data.chute")
-        deck = (peers / "in.chute").read_text()
+        with open(data, "rb") as f:
+            packed = f.read(2) == b"\x1f\x8b"
+        if packed:  # gzip: LAMMPS is given the plain text
+            with gzip.open(data, "rb") as src, open(tmp / "data.chute", "wb") as dst:
+                shutil.copyfileobj(src, dst)
+        else:
+            shutil.copy(data, tmp / "data.chute")
+        deck = deck_path.read_text()
         deck = re.sub(r"^run\s+\d+", f"run\t\t{steps}", deck, flags=re.M)
         (tmp / "in.chute").write_text(deck)
         cmd = [lmp, "-in", "in.chute", "-log", "none"]
@@ -118,13 +138,17 @@ def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--scaling-steps", type=int, default=500)
-    ap.add_argument("--peers", type=Path, default=DEFAULT_PEERS)
+    ap.add_argument("--peers", type=Path, default=None,
+                    help="folder with in.chute and data.chute[.gz] (default: the copies "
+                         "shipped in grainflow/data/chute)")
     ap.add_argument("--skip-lammps", action="store_true")
     ap.add_argument("--skip-scaling", action="store_true")
     args = ap.parse_args(argv)
-    data = args.peers / "data.chute"
-    if not data.exists():
-        ap.error(f"--peers: {data} not found (the chute files live in shared/peers)")
+    data, deck = benchmark_files(args.peers)
+    for path in (data, deck):
+        if not path.is_file():
+            ap.error(f"--peers: {path} not found (the folder needs in.chute and "
+                     "data.chute or data.chute.gz)")
 
     results: dict = {"date": time.strftime("%Y-%m-%d"), "machine": platform.processor()
                      or platform.machine(), "cores": os.cpu_count(), "steps": args.steps}
@@ -136,8 +160,8 @@ def main(argv: list[str] | None = None) -> dict:
     results["bytes_per_particle"] = g1["bytes_per_particle"]
     results["list_builds"] = g1["builds"]
     if not args.skip_lammps:
-        l1 = run_lammps(args.peers, args.steps, 1)
-        l2 = run_lammps(args.peers, args.steps, 2)
+        l1 = run_lammps(data, deck, args.steps, 1)
+        l2 = run_lammps(data, deck, args.steps, 2)
         results["lammps_1"] = l1["psps"]
         results["lammps_2"] = l2["psps"]
         results["ratio_1"] = g1["psps"] / l1["psps"]

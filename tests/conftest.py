@@ -12,7 +12,6 @@ step of a small system 10-50 times slower; the physics does not depend on the th
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numba
 import numpy as np
@@ -25,10 +24,11 @@ from grainflow.engine.simulation import Simulation
 from grainflow.frame import Box
 from grainflow.models.base import ContactLaw
 from grainflow.models.granular import GranularLaw
+from grainflow.scenarios.chute import chute_files
 from grainflow.state import ParticleState
 
-#: ``../shared/peers`` beside the repository (LAMMPS chute benchmark files).
-PEERS = Path(__file__).resolve().parents[1].parent / "shared" / "peers"
+#: The LAMMPS chute benchmark files shipped with grainflow (``grainflow/data/chute``).
+PEERS = chute_files().data.parent
 
 
 @pytest.fixture

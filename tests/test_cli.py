@@ -14,7 +14,7 @@ import tomli_w
 from typer.testing import CliRunner
 
 from grainflow import __version__
-from grainflow.cli import _optional, app
+from grainflow.cli import app
 
 VERBS = ["run", "resume", "info", "export", "demo", "bench", "study", "sweep", "sweep-status"]
 
@@ -159,8 +159,11 @@ def test_threads_out_of_range_is_a_usage_error() -> None:
     assert result.exit_code == 2
 
 
-def test_missing_optional_parts_give_a_clear_error() -> None:
-    with pytest.raises(RuntimeError, match="the demo needs grainflow.no_such_module"):
-        _optional("grainflow.no_such_module", "demo", "the demo")
-    with pytest.raises(RuntimeError, match="needs grainflow.cli:no_such_function"):
-        _optional("grainflow.cli", "no_such_function", "the demo")
+def test_demo_verb_calls_the_hopper_demo(tmp_path: Path, monkeypatch) -> None:
+    import grainflow.studies.hopper_demo as hopper_demo
+
+    calls = []
+    monkeypatch.setattr(hopper_demo, "demo", lambda out: calls.append(out))
+    result = invoke("demo", "-o", str(tmp_path / "demo"))
+    assert result.exit_code == 0, result.output
+    assert calls == [tmp_path / "demo"]

@@ -145,7 +145,7 @@ def test_pair_forgets_after_leaving_shell(dim):
     sim.run(5000, until=lambda s: gap_of(s) > 1.5 * DELTA_C)
     assert gap_of(sim) > 1.5 * DELTA_C and approach_speed(sim) < 0
     assert sim.neighbors.n_pairs == 1
-    assert np.all(sim.pair.history[:, 3] == 0.0)
+    assert np.all(sim.interactions[0].history[:, 3] == 0.0)
     # turn around and come back
     st.v[:] *= -1.0
     forces = []

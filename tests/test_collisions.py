@@ -62,7 +62,7 @@ def test_head_on_restitution_and_contact_time(dim, e, damping, integrator):
     m = _mass(dim)  # pi/4 (disk) or pi/6 (sphere): m != 1 separates the two conventions
     meff = 0.5 * m
     law = _law(e, TC, meff, damping)
-    e_an, tc_an = restitution_and_contact_time(law.table[0, 0, 0], law.table[0, 0, 2], meff,
+    e_an, tc_an = restitution_and_contact_time(law.row(0, 0)["kn"], law.row(0, 0)["gamma_n"], meff,
                                                damping)
     assert e_an == pytest.approx(e, rel=1e-12) and tc_an == pytest.approx(TC, rel=1e-12)
     sim, c = _collide(dim, law, dt=TC / 500, integrator=integrator())

@@ -112,8 +112,8 @@ def test_checkpoint_round_trip_bitwise(integrator, k):
     ref_snap = _snapshot(ref)
     _exercised(ref_snap)
     # live frictional contacts (tangential springs) and cohesive "touched" flags at the end
-    assert np.any(ref.pair.history[:, :3] != 0.0)
-    assert np.any(ref.pair.history[:, 3] > 0.0)
+    assert np.any(ref.interactions[0].history[:, :3] != 0.0)
+    assert np.any(ref.interactions[0].history[:, 3] > 0.0)
 
     first = build_pile(integrator=integrator())
     first.run(k)
@@ -131,4 +131,4 @@ def test_checkpoint_round_trip_bitwise(integrator, k):
     assert resumed.time == ref.time
     # contact histories identical too
     assert np.array_equal(resumed.neighbors.nbr, ref.neighbors.nbr)
-    assert np.array_equal(resumed.pair.history, ref.pair.history)
+    assert np.array_equal(resumed.interactions[0].history, ref.interactions[0].history)

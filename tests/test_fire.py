@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import bidisperse_radii, overlaps
-from grainflow.engine.integrators import minimize_fire
+from grainflow.engine.minimize import minimize_fire
 from grainflow.engine.simulation import Simulation
 from grainflow.frame import Box
 from grainflow.models.soft import SoftLaw
@@ -30,7 +30,7 @@ def _fill(dim: int, n: int, phi: float, seed: int, mu: float = 0.0):
     st.add_particles(rng.uniform(0.0, length, (n, dim)), radii, mass=1.0,
                      v=rng.standard_normal((n, dim)))
     law = SoftLaw()
-    law.set_all(epsilon=1.0, mu=mu)
+    law.set_all(epsilon=1.0, mu_k=mu)
     sim = Simulation(st, 1.0, law)
     sim.dt = sim.contact_time() / 50.0
     return sim, np.full(dim, length)

@@ -20,12 +20,11 @@ from grainflow.scenarios.hopper import (
     HopperSection,
     build_hopper,
     dissipation,
-    flow_summary,
     hopper_updater,
     prepare,
-    read_events,
 )
 from grainflow.scenarios.hopper_reinsertion import OUT_FLAG, HopperReinsertion, write_events
+from grainflow.studies.hopper_results import flow_summary, read_events
 from grainflow.state import ParticleState
 from grainflow.walls import Cylinder, PlateWithHole, Segment
 
@@ -78,7 +77,10 @@ def test_dt_from_stiffest_contact() -> None:
     sim = build_hopper(sec, 2)
     r_s = 0.5 * SIGMA_SMALL
     wall_tc = math.pi * math.sqrt(math.pi * r_s**2 * r_s**2 / 1.0e4)
-    assert wall_tc < sim.contact_time()
+    pair_tc = min(s.time for s in sim.interactions[0].time_scales(sim.context)
+                  if s.kind == "oscillation")
+    assert wall_tc < pair_tc
+    assert sim.contact_time() == pytest.approx(wall_tc)
     assert sim.dt == pytest.approx(sec.dt_fraction * wall_tc)
 
 
@@ -128,7 +130,7 @@ def _toy_sim() -> tuple[Simulation, HopperReinsertion]:
     from grainflow.models.soft import SoftLaw
 
     law = SoftLaw(n_types=1)
-    law.set_pair(0, 0, epsilon=100.0, mu=0.0)
+    law.set_pair(0, 0, epsilon=100.0, mu_k=0.0)
     sim = Simulation(st, 1e-3, law, seed=0)
     up = HopperReinsertion(2, 0.0, 0.0, 10.0)
     up.setup_state(sim)
@@ -229,3 +231,19 @@ def test_flow_summary_on_synthetic_rundir(tmp_path) -> None:
     assert out["Q"] == pytest.approx(0.75 * rate, abs=4 * out["Q_err"])
     t, ids, s = read_events(tmp_path)
     assert np.allclose(t, times) and np.array_equal(ids, np.arange(times.size))
+
+
+def test_flow_summary_is_named_where_it_lives() -> None:
+    """The sweep example and the study name the analysis by import path; both resolve."""
+    import importlib
+    import tomllib
+    from pathlib import Path
+
+    from grainflow.studies.hopper_study import REDUCED, sweep_specs
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "hopper_sweep.toml"
+    names = set(tomllib.loads(example.read_text())["analyses"])
+    names |= {name for spec in sweep_specs(REDUCED).values() for name in spec.analyses}
+    assert names == {"grainflow.studies.hopper_results:flow_summary"}
+    module, _, attr = names.pop().partition(":")
+    assert getattr(importlib.import_module(module), attr) is flow_summary

@@ -212,7 +212,7 @@ def test_removing_particles_keeps_wall_history_aligned():
     sim.remove_particles(sim.state.id == 1)
     for i, h in zip(sim.state.id, sim.state.arrays[wall.name]):
         np.testing.assert_array_equal(h, before[int(i)])
-    assert wall.contacts(sim)[0].tolist() == [0, 1]
+    assert wall.contacts(sim.context)[0].i.tolist() == [0, 1]
 
 
 def _hopper_with_pour() -> Simulation:

@@ -7,7 +7,7 @@
 * Per-pair history survives a list rebuild, a spatial re-sort and deletions, with the
   vector components changing sign when i and j swap roles.
 * Memory stays proportional to the number of particles in a tall, mostly empty column.
-* dt above t_c/15 warns, above t_c/4 raises :class:`TimeStepError`.
+* dt above t_c/15 warns, above t_c/4 raises :class:`TimeStepError` naming the type pair.
 """
 
 from __future__ import annotations
@@ -220,7 +220,7 @@ def _set_known_history(sim: Simulation) -> set[tuple[int, int]]:
     rows, cols = _slots(sim)
     touch = _touching(sim, rows, cols)
     ids = sim.state.id
-    h = sim.pair.history
+    h = sim.interactions[0].history
     h[:] = 0.0
     h[touch] = _history_value(ids[rows[touch]], ids[cols[touch]])
     return {(min(a, b), max(a, b)) for a, b in zip(ids[rows[touch]].tolist(),
@@ -230,7 +230,7 @@ def _set_known_history(sim: Simulation) -> set[tuple[int, int]]:
 def _check_history(sim: Simulation, expected_pairs: set[tuple[int, int]]) -> int:
     rows, cols = _slots(sim)
     ids = sim.state.id
-    h = sim.pair.history
+    h = sim.interactions[0].history
     found = set()
     flipped = 0
     for k in range(rows.shape[0]):
@@ -277,7 +277,7 @@ def test_history_follows_arbitrary_permutation_and_deletion():
     rng = np.random.default_rng(1)
     perm = rng.permutation(sim.state.n)  # old index -> new index
     sim.state.reindex(perm)
-    sim.pair.reindex(perm)
+    sim.interactions[0].reindex(perm)
     sim.compute_forces(update=False)
     assert _check_history(sim, expected) > 0
     # delete a quarter of the particles: their pairs go, the others keep their values
@@ -382,13 +382,13 @@ def test_time_step_check():
         sim.check_time_step()
         sim.run(2)
     sim, _ = _timestep_sim(tc / 14)
-    with pytest.warns(UserWarning, match="t_c/15"):
+    with pytest.warns(UserWarning, match=r"oscillation time .* types \(0, 1\) / 15"):
         sim.check_time_step()
     sim, _ = _timestep_sim(tc / 4.1)
     with pytest.warns(UserWarning):
         sim.check_time_step()
     sim, _ = _timestep_sim(tc / 3.9)
-    with pytest.raises(TimeStepError, match="exceeds the hard limit"):
+    with pytest.raises(TimeStepError, match=r"exceeds the stability limit .* types \(0, 1\)"):
         sim.check_time_step()
     with pytest.raises(TimeStepError):
         sim.run(1)

@@ -22,7 +22,7 @@ import pytest
 from grainflow.config.schema import load_config
 from grainflow.io.h5md import read_frames
 from grainflow.progress import PlainProgress, Progress, RichProgress, make_progress
-from grainflow.runner import (CHECKPOINT, CONFIG, FRAMES, SNAPSHOT, SUMMARY, THERMO,
+from grainflow.runner import (CHECKPOINT, CHECKPOINT_VERSION, CONFIG, FRAMES, SNAPSHOT, SUMMARY, THERMO,
                               THERMO_COLUMNS, UNSTABLE, RunDirError, RunInterrupted,
                               RunUnstable, checkpoint_step, read_checkpoint, resume_run,
                               run_config)
@@ -284,9 +284,9 @@ def test_checkpoint_holds_the_whole_state(reference: Path) -> None:
     data = read_checkpoint(reference / CHECKPOINT)
     sim = data["sim"]
     assert {"x", "v", "omega", "force", "torque", "id", "wall_history_0"} <= sim["arrays"].keys()
-    assert sim["pair"]["history"].shape[1] == 4  # tangential spring + cohesion flag
+    assert sim["interactions"]["0"]["history"].shape[1] == 4  # tangential spring + cohesion flag
     assert sim["rng"]["bit_generator"] == "PCG64"
-    assert data["runner"]["version"] == 1 and data["runner"]["wall_seconds"] > 0
+    assert data["runner"]["version"] == CHECKPOINT_VERSION and data["runner"]["wall_seconds"] > 0
 
 
 def test_adams_bashforth_history_survives_a_checkpoint(tmp_path: Path) -> None:
@@ -305,7 +305,7 @@ def test_adams_bashforth_history_survives_a_checkpoint(tmp_path: Path) -> None:
 
 def test_soft_law_run_resumes_bitwise(tmp_path: Path) -> None:
     config = settle(steps=600, checkpoint_every=0, frames_every=0, snapshot=False)
-    config["contact"] = {"law": "soft", "epsilon": 1000.0, "mu": 0.5}
+    config["contact"] = {"law": "soft", "epsilon": 1000.0, "mu_k": 0.5}
     run_config(config, tmp_path / "ref", progress="none")
     with pytest.raises(RunInterrupted):
         run_config(config, tmp_path / "run", progress=InterruptAt(300))
@@ -350,7 +350,7 @@ def test_an_unstable_run_stops_naming_step_and_particle(tmp_path: Path) -> None:
             run_config(COLLIDE, rundir, progress="none")
     message = str(info.value)
     assert "unstable at step 4, particle id" in message
-    assert "dt = 0.3" in message and "t_c" in message
+    assert "dt = 0.3" in message and "oscillation time" in message
     assert "last healthy checkpoint: step 2" in message
     assert checkpoint_step(rundir / CHECKPOINT) == 2
     assert checkpoint_step(rundir / UNSTABLE) == 4

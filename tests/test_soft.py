@@ -78,7 +78,7 @@ def test_kinetic_friction_relaxes_relative_velocity(dim, masses):
     v[1, 1] = -u * m0 / (m0 + m1)
     st.add_particles(x, 0.5, mass=np.array([m0, m1]), v=v)
     law = SoftLaw()
-    law.set_all(epsilon=1e-6, mu=mu)  # repulsion negligible next to the friction
+    law.set_all(epsilon=1e-6, mu_k=mu)  # repulsion negligible next to the friction
     dt = 1e-3 / rate
     sim = Simulation(st, dt, law)
     p0 = st.momentum().copy()
@@ -104,7 +104,7 @@ def test_kinetic_friction_absent_without_contact():
     st.add_particles(np.array([[0.0, 0, 0], [1.001, 0, 0]]), 0.5, mass=1.0,
                      v=np.array([[0.0, 0.1, 0], [0.0, -0.1, 0]]))
     law = SoftLaw()
-    law.set_all(epsilon=1.0, mu=5.0)
+    law.set_all(epsilon=1.0, mu_k=5.0)
     sim = Simulation(st, 1e-3, law)
     sim.compute_forces(update=False)
     assert sim.neighbors.n_pairs == 1

@@ -11,7 +11,6 @@ Heavy modules (numba, h5py, matplotlib) are imported inside the verbs, so ``--he
 
 from __future__ import annotations
 
-import importlib
 import importlib.util
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -127,9 +126,11 @@ def demo(
     output: Annotated[Path, typer.Option("--output", "-o", help="Run directory.")]
     = Path("grainflow-demo"),
 ) -> None:
-    """Run a small 2D hopper and show it (needs grainflow.scenarios.hopper)."""
+    """Run a small 2D hopper discharge: flow rate, snapshot.png and flow_rate.png."""
     with _errors():
-        _optional("grainflow.scenarios.hopper", "demo", "the demo")(output)
+        from grainflow.studies.hopper_demo import demo as hopper_demo
+
+        hopper_demo(output)
 
 
 @app.command()
@@ -208,19 +209,6 @@ def _set_threads(threads: int | None) -> None:
         from grainflow.runner import set_threads
 
         set_threads(threads)
-
-
-def _optional(module: str, name: str, what: str) -> Callable[..., Any]:
-    """``module.name``, or a clear error naming what is missing."""
-    try:
-        mod = importlib.import_module(module)
-    except ModuleNotFoundError as err:
-        if err.name != module:
-            raise
-        raise RuntimeError(f"{what} needs {module}, which this installation does not have") from None
-    if not hasattr(mod, name):
-        raise RuntimeError(f"{what} needs {module}:{name}, which this installation does not have")
-    return getattr(mod, name)
 
 
 def _benchmark_main() -> Callable[[list[str]], Any]:

@@ -36,19 +36,44 @@ class Box:
         return np.asarray(self.hi, dtype=float) - np.asarray(self.lo, dtype=float)
 
 
+#: ``Contacts.kind`` codes: what the partner ``j`` of a contact is.
+PAIR, WALL, BOND, ANCHOR = 0, 1, 2, 3
+#: Names of the ``kind`` codes, in code order.
+CONTACT_KINDS = ("pair", "wall", "bond", "anchor")
+
+
 @dataclass(frozen=True)
 class Contacts:
-    """Pair contacts of one frame.
+    """Every force between two bodies in one frame, with its branch vector.
 
-    ``i``, ``j``: (M,) particle ids (not indices); ``force``: (M, dim) force on ``i`` from
-    ``j``; ``branch``: (M, dim) vector from the centre of ``j`` to the centre of ``i``
-    (minimum image), so the contact stress is ``sum force (x) branch / V``.
+    ``i``: (M,) particle ids (not indices); ``kind``: (M,) int8 code saying what the partner
+    is (:data:`PAIR`, :data:`WALL`, :data:`BOND`, :data:`ANCHOR`); ``j``: (M,) the partner:
+    a particle id for pair contacts and bonds (tethers between particles), the wall's index
+    for wall contacts (walls numbered in the order the simulation's wall operations list
+    them, see :meth:`grainflow.engine.simulation.Simulation.walls`), -1 for a tether to a
+    fixed anchor point; ``force``: (M, dim) force on ``i`` from ``j``; ``branch``: (M, dim)
+    vector from the partner to the centre of ``i``: from the centre of ``j`` (minimum image)
+    for pairs and bonds, from the wall's contact point for walls, from the anchor point for
+    anchors. The contact stress of a region of volume V is ``sum force (x) branch / V`` over
+    its pairs and bonds (each counted once, as listed) plus the wall and anchor terms.
+    ``kind`` may be omitted (None): every row is then a particle pair.
     """
 
     i: np.ndarray
     j: np.ndarray
     force: np.ndarray
     branch: np.ndarray
+    kind: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind is None:
+            object.__setattr__(self, "kind", np.zeros(np.shape(self.i)[0], dtype=np.int8))
+
+    def of_kind(self, kind: int) -> "Contacts":
+        """The rows of one kind (e.g. ``contacts.of_kind(PAIR)``)."""
+        rows = self.kind == kind
+        return Contacts(self.i[rows], self.j[rows], self.force[rows], self.branch[rows],
+                        self.kind[rows])
 
 
 @dataclass(frozen=True)

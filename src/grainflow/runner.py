@@ -37,6 +37,7 @@ from grainflow import __version__
 from grainflow.config.build import build_simulation, total_steps
 from grainflow.config.schema import RunConfig, load_config, resolved_dict
 from grainflow.engine.simulation import InstabilityError, Simulation
+from grainflow.io.thermo import THERMO_COLUMNS, ThermoLog
 from grainflow.progress import Progress, make_progress
 
 __all__ = ["CHECKPOINT_VERSION", "RunDirError", "RunError", "RunInterrupted", "RunSummary",
@@ -44,7 +45,7 @@ __all__ = ["CHECKPOINT_VERSION", "RunDirError", "RunError", "RunInterrupted", "R
            "run_config", "set_threads", "write_checkpoint"]
 
 #: Layout version of checkpoint files; a resume refuses other versions.
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
 
 CONFIG = "config.toml"
 THERMO = "thermo.csv"
@@ -56,9 +57,6 @@ SUMMARY = "summary.json"
 #: Everything a run writes (what ``overwrite`` removes; nothing else is touched).
 OUTPUTS = (CONFIG, THERMO, FRAMES, CHECKPOINT, UNSTABLE, SNAPSHOT, SUMMARY, "checkpoint.tmp",
            FRAMES + ".recover", "frames.dump", "vtk")
-
-THERMO_COLUMNS = ("step", "time", "N", "kinetic_energy", "rotational_energy", "max_overlap",
-                  "contacts", "rebuilds", "particle_steps_per_s")
 
 
 class RunError(RuntimeError):
@@ -219,7 +217,7 @@ class _Run:
             with stop.installed():
                 if fresh:
                     sim.compute_forces(update=False)
-                    thermo(sim)
+                    thermo(sim.observer_context)
                     if frames is not None:
                         frames.append(sim.frame(contacts=out.contacts))
                     self.checkpoint(sim)
@@ -232,7 +230,7 @@ class _Run:
                 sim.add_observer(lambda s: self.progress.update(s.step, s.state.n,
                                                                 self.rate()), 10)
                 if out.checkpoint_every:
-                    sim.add_observer(self.checkpoint, out.checkpoint_every)
+                    sim.add_observer(lambda _: self.checkpoint(sim), out.checkpoint_every)
                 self.progress.start(self.total, sim.step)
                 sim.run(max(0, self.total - sim.step), until=lambda s: stop.signum is not None)
                 if self.checkpoint_step != sim.step:
@@ -365,52 +363,6 @@ def _clip(point: np.ndarray, along: np.ndarray, lo: np.ndarray, hi: np.ndarray,
         ta, tb = sorted(((lo[a] - point[a]) / along[a], (hi[a] - point[a]) / along[a]))
         t0, t1 = max(t0, ta), min(t1, tb)
     return None if t0 > t1 else [point + t0 * along, point + t1 * along]
-
-
-# ---------------------------------------------------------------------------- thermo log
-class ThermoLog:
-    """Observer writing one CSV row per call (columns :data:`THERMO_COLUMNS`).
-
-    With ``resume_step``, rows after that step (and a torn last line) are dropped first.
-    """
-
-    def __init__(self, path: Path, resume_step: int | None = None) -> None:
-        if resume_step is not None and path.is_file():
-            _trim_csv(path, resume_step)
-            self._file = path.open("a")
-        else:
-            self._file = path.open("w")
-            self._file.write(",".join(THERMO_COLUMNS) + "\n")
-        self._last: tuple[int, float] | None = None
-
-    def __call__(self, sim: Simulation) -> None:
-        now = time.perf_counter()
-        rate = 0.0
-        if self._last is not None and now > self._last[1]:
-            rate = (sim.particle_steps - self._last[0]) / (now - self._last[1])
-        self._last = (sim.particle_steps, now)
-        st = sim.state
-        row = (sim.step, repr(sim.time), st.n, repr(st.kinetic_energy()),
-               repr(st.rotational_energy()), repr(sim.max_overlap()),
-               len(sim.contacts().i), sim.rebuilds, f"{rate:.6g}")
-        self._file.write(",".join(map(str, row)) + "\n")
-        self._file.flush()
-
-    def close(self) -> None:
-        self._file.close()
-
-
-def _trim_csv(path: Path, step: int) -> None:
-    lines = path.read_text().splitlines(keepends=True)
-    keep = lines[:1]
-    for line in lines[1:]:
-        fields = line.rstrip("\n").split(",")
-        if not line.endswith("\n") or len(fields) != len(THERMO_COLUMNS):
-            break
-        if int(fields[0]) > step:
-            break
-        keep.append(line)
-    _atomic_write_text(path, "".join(keep))
 
 
 # ---------------------------------------------------------------------------- checkpoints

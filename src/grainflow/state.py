@@ -49,6 +49,7 @@ class _Extra:
     shape: tuple[int, ...]
     dtype: type
     fill: float
+    reset_on_move: bool
 
 
 class ParticleState:
@@ -109,8 +110,13 @@ class ParticleState:
 
     # --------------------------------------------------------------- extras
     def add_array(self, name: str, shape: tuple[int, ...] = (), dtype: type = np.float64,
-                  fill: float = 0.0) -> np.ndarray:
-        """Register a per-particle array that follows particles through re-indexing."""
+                  fill: float = 0.0, *, reset_on_move: bool = False) -> np.ndarray:
+        """Register a per-particle array that follows particles through re-indexing.
+
+        New particles get ``fill``. ``reset_on_move``: the array is a memory of the
+        particle's recent motion (integrator history, wall-contact history), so
+        :meth:`relocate` refills it with ``fill`` too.
+        """
         if name in _CORE_FIELDS:
             raise ValueError(f"array name {name!r} is a core field; choose another name")
         if name in self.arrays:
@@ -118,7 +124,7 @@ class ParticleState:
             if existing.shape != tuple(shape) or np.dtype(existing.dtype) != np.dtype(dtype):
                 raise ValueError(f"array {name!r} already registered with another shape/dtype")
             return self.arrays[name]
-        self._extras[name] = _Extra(tuple(shape), dtype, fill)
+        self._extras[name] = _Extra(tuple(shape), dtype, fill, reset_on_move)
         self.arrays[name] = np.full((self.n, *shape), fill, dtype=dtype)
         return self.arrays[name]
 
@@ -187,6 +193,28 @@ class ParticleState:
             self.arrays[name] = np.concatenate([arr, add.astype(arr.dtype, copy=False)])
         self.generation += 1
         return np.arange(start, start + m)
+
+    def relocate(self, index: np.ndarray, x: np.ndarray, v: np.ndarray | None = None,
+                 omega: np.ndarray | None = None) -> None:
+        """Move particles ``index`` to ``x`` (and set ``v``/``omega`` if given), as a
+        reinsertion does: every array registered with ``reset_on_move`` forgets their past
+        (an Adams-Bashforth force history, wall-contact springs). Pair-contact histories
+        live outside the state: use :meth:`grainflow.engine.simulation.Simulation.relocate`,
+        which clears those too.
+        """
+        index = np.atleast_1d(np.asarray(index, dtype=np.int64))
+        m = index.shape[0]
+        self.arrays["x"][index] = _to3(np.reshape(x, (m, -1)), m, "x")
+        if v is not None:
+            self.arrays["v"][index] = _to3(np.reshape(v, (m, -1)), m, "v")
+        if omega is not None:
+            self.arrays["omega"][index] = _omega3(omega, m, self.dim)
+        if self.dim == 2:
+            self.arrays["x"][index, 2] = 0.0
+            self.arrays["v"][index, 2] = 0.0
+        for name, extra in self._extras.items():
+            if extra.reset_on_move:
+                self.arrays[name][index] = extra.fill
 
     def reindex(self, old_to_new: np.ndarray) -> None:
         """Permute and/or delete particles: ``old_to_new[i]`` is the new index, -1 drops it."""

@@ -9,44 +9,42 @@ the ``[run]`` settings (integrator, skin, seed, health checks) from the config.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numpy as np
 
-from grainflow.config.schema import (ConfigError, DataFile, GranularContact, LatticeFill,
-                                     ListFill, RandomFill, RunConfig, SizedPopulation,
-                                     SoftContact)
+from grainflow.config.schema import (ConfigError, DataFile, LatticeFill, ListFill, RandomFill,
+                                     RunConfig, SizedPopulation)
 from grainflow.engine.forces import Drag, Gravity
-from grainflow.engine.integrators import integrator_by_name, minimize_fire
+from grainflow.engine.integrators import integrator_by_name
 from grainflow.engine.simulation import Simulation, TimeStepError
 from grainflow.frame import Box
 from grainflow.models.base import ContactLaw
-from grainflow.models.granular import GranularLaw, stiffness_and_damping
-from grainflow.models.soft import SoftLaw
+from grainflow.models.submodel import SLOTS
+from grainflow.engine.minimize import relax
 from grainflow.state import ParticleState
 
-__all__ = ["build_chute", "build_generic", "build_simulation", "estimate_contact_time",
-           "make_law", "make_simulation", "total_steps"]
+__all__ = ["build_chute", "build_generic", "build_simulation", "make_laws", "make_simulation",
+           "relax", "total_steps"]
 
 
 def build_simulation(config: RunConfig, *, prepare: bool = True) -> Simulation:
     """Build the run's simulation at step 0.
 
     ``prepare``: also relax overlaps with FIRE when ``run.minimize`` is set (skip it when a
-    checkpoint will be loaded into the result anyway).
+    checkpoint will be loaded into the result anyway). A ``run.dt`` past the stability limit
+    t_c/4 of the built particles is refused here (ConfigError ``run.dt: ...``), unless
+    ``run.allow_unsafe_dt``.
     """
     with _config_errors():
         sim = config.scenario_entry.build(config)
     run = config.run
-    if run.allow_unsafe_dt:
-        sim.check_time_step = lambda: _warn_unsafe(sim)  # type: ignore[method-assign]
-    else:
-        try:
-            sim.check_time_step()
-        except TimeStepError as err:
-            raise ConfigError([f"run.{err}"]) from None
+    sim.allow_unsafe_dt = run.allow_unsafe_dt
+    try:
+        sim.check_time_step()
+    except TimeStepError as err:
+        raise ConfigError([_time_step_message(config, sim, err)]) from None
     if prepare and run.minimize:
         relax(sim)
     return sim
@@ -60,45 +58,46 @@ def total_steps(config: RunConfig, sim: Simulation) -> int:
     return max(1, math.ceil(run.duration / sim.dt - 1e-9))
 
 
-def make_simulation(config: RunConfig, state: ParticleState, law: ContactLaw | None, *,
+def make_simulation(config: RunConfig, state: ParticleState,
+                    laws: ContactLaw | list[tuple[ContactLaw, list | None]] | None, *,
                     default_dt: float | None = None, default_skin: float | None = None
                     ) -> Simulation:
-    """A Simulation with the ``[run]`` settings.
+    """A Simulation with the ``[run]`` settings and the given pair interactions.
 
-    The time step is ``run.dt``, else the scenario's ``default_dt``, else ``run.dt_fraction``
-    times the shortest binary contact time of the pair law (walls touching a particle have
-    the larger effective mass, hence a longer contact time).
+    ``laws``: one law for every type pair, or ``(law, type pairs)`` items
+    (:func:`make_laws`). The time step is ``run.dt``, else the scenario's ``default_dt``,
+    else ``run.dt_fraction`` times the shortest oscillation time of the pair interactions
+    (capped by their relaxation times, :meth:`Simulation.stable_time_step`); forces added
+    later (walls, tethers, drag) are checked against it when the build is done.
     """
     run = config.run
-    sim = Simulation(state, run.dt or default_dt or 1.0, law, skin=run.skin or default_skin,
+    sim = Simulation(state, run.dt or default_dt or 1.0, skin=run.skin or default_skin,
                      integrator=integrator_by_name(run.integrator), sort_every=run.sort_every,
                      check_every=run.check_every,
                      max_overlap_fraction=run.max_overlap_fraction, seed=run.seed)
+    if isinstance(laws, ContactLaw):
+        laws = [(laws, None)]
+    for law, types in laws or []:
+        sim.add_interaction(law, types)
     if run.dt is None and default_dt is None:
-        tc = sim.contact_time()
-        if not math.isfinite(tc):
+        dt = sim.stable_time_step(run.dt_fraction)
+        if not math.isfinite(dt):
             raise ConfigError(["run.dt: missing; without a contact law there is no contact "
                                "time to derive it from, so give dt explicitly"])
-        sim.dt = run.dt_fraction * tc
+        sim.dt = dt
     return sim
 
 
-def relax(sim: Simulation) -> None:
-    """Remove overlaps with FIRE, gravity switched off (seed 003's initialisation)."""
-    forces = sim.forces
-    sim.forces = [f for f in forces if not isinstance(f, Gravity)]
-    try:
-        minimize_fire(sim)
-    finally:
-        sim.forces = forces
-        sim.forces_current = False
-
-
-def _warn_unsafe(sim: Simulation) -> None:
-    tc = sim.contact_time()
-    if math.isfinite(tc) and sim.dt > tc / 4:
-        warnings.warn(f"dt = {sim.dt:g} is past the stability limit t_c/4 = {tc / 4:g}; "
-                      "running anyway because run.allow_unsafe_dt is set", stacklevel=2)
+def _time_step_message(config: RunConfig, sim: Simulation, err: TimeStepError) -> str:
+    """``run.dt: ...`` for a time step the engine refused: the limit and what to write."""
+    run = config.run
+    if run.dt is None:  # the scenario's own default dt
+        return f"run.{err}"
+    if config.scenario == "generic":  # its default is run.dt_fraction x t_c
+        fix = "or leave dt out to get dt_fraction x the shortest time scale"
+    else:
+        fix = f"or leave dt out for the {config.scenario} scenario's default"
+    return f"run.{err}, {fix}"
 
 
 @contextmanager
@@ -126,8 +125,8 @@ def build_generic(config: RunConfig) -> Simulation:
             _add_population(state, pop, rng)
         except ValueError as err:
             raise ConfigError([f"particles[{k}]: {err}"]) from None
-    law = make_law(config, _type_masses(state)) if config.contact is not None else None
-    sim = make_simulation(config, state, law)
+    laws = make_laws(config, _type_masses(state)) if config.contact is not None else None
+    sim = make_simulation(config, state, laws)
     _add_walls(config, sim)
     _add_tethers(config, sim)
     _add_updaters(config, sim)
@@ -140,7 +139,7 @@ def build_generic(config: RunConfig) -> Simulation:
 
 def _add_population(state: ParticleState, pop, rng: np.random.Generator) -> None:
     if isinstance(pop, DataFile):
-        from grainflow.io.lammps_data import read_lammps_data
+        from grainflow.insertion.lammps_data import read_lammps_data
 
         data = read_lammps_data(pop.file)
         v = data.v if pop.velocity is None else np.broadcast_to(pop.velocity, data.v[:, :state.dim].shape)
@@ -253,10 +252,11 @@ def _add_updaters(config: RunConfig, sim: Simulation) -> None:
 
 
 def _add_walls(config: RunConfig, sim: Simulation) -> None:
-    """One WallForce per wall type, sharing the pair law."""
+    """One WallForce per wall type and pair law: the particles of each type meet the walls
+    through the law of their (particle type, wall type) pair."""
     if not config.walls:
         return
-    if sim.pair is None:
+    if not sim.interactions:
         raise ConfigError(["walls: need a [contact] law (walls touch particles through it)"])
     from grainflow.walls import WallForce
 
@@ -266,11 +266,28 @@ def _add_walls(config: RunConfig, sim: Simulation) -> None:
             by_type.setdefault(wall.type, []).extend(wall_shapes(wall))
         except ValueError as err:
             raise ConfigError([f"walls[{k}].{err}"]) from None
+    particle_types = sorted({int(t) for t in np.unique(sim.state.type)}
+                            | {p.type for p in config.particles} | {i.type for i in config.insert})
     for wall_type, shapes in by_type.items():
-        try:
-            sim.add_force(WallForce(shapes, sim.pair.law, wall_type))
-        except ValueError as err:
-            raise ConfigError([f"walls (type {wall_type}): {err}"]) from None
+        by_law: dict[int, tuple[ContactLaw, list[int]]] = {}
+        for t in particle_types:
+            law = _law_of(sim, t, wall_type)
+            by_law.setdefault(id(law), (law, []))[1].append(t)
+        for law, types in by_law.values():
+            try:
+                sim.add_force(WallForce(shapes, law, wall_type,
+                                        None if len(by_law) == 1 else types))
+            except ValueError as err:
+                raise ConfigError([f"walls (type {wall_type}): {err}"]) from None
+
+
+def _law_of(sim: Simulation, a: int, b: int) -> ContactLaw:
+    """The law of the interaction that owns the type pair (a, b)."""
+    pair = (min(a, b), max(a, b))
+    for interaction in sim.interactions:
+        if interaction.types is not None and pair in interaction.types:
+            return interaction.law
+    return next(i.law for i in sim.interactions if i.types is None)
 
 
 def wall_shapes(wall) -> list:
@@ -278,9 +295,13 @@ def wall_shapes(wall) -> list:
     from grainflow.walls import geometry as g
 
     velocity = tuple(wall.velocity) if wall.velocity is not None else (0.0, 0.0, 0.0)
-    params = wall.model_dump(exclude={"type", "velocity", "shape"})
+    params = wall.model_dump(exclude={"type", "velocity", "shape"}, exclude_none=True)
     if wall.shape == "hopper2d":
-        return g.Hopper2D(**params).segments(velocity=velocity)
+        return g.Hopper2D(**params, velocity=velocity).segments()
+    if wall.shape == "cone" and wall.lammps_form:  # may be a Cylinder (equal radii)
+        return [g.Cone.from_lammps(wall.axis, *wall.center, wall.radius_lo, wall.radius_hi,
+                                   wall.lo, wall.hi, inside=wall.inside, lid_lo=wall.lid_lo,
+                                   lid_hi=wall.lid_hi, velocity=velocity)]
     cls = {"plane": g.Plane, "segment": g.Segment, "cylinder": g.Cylinder, "cone": g.Cone,
            "plate_with_hole": g.PlateWithHole}[wall.shape]
     return [cls(**params, velocity=velocity)]
@@ -308,34 +329,36 @@ def _type_masses(state: ParticleState) -> dict[int, float]:
     return {int(t): float(state.mass[state.type == t].mean()) for t in np.unique(state.type)}
 
 
-def make_law(config: RunConfig, type_mass: dict[int, float]) -> ContactLaw:
-    """The pair law of ``[contact]`` with one parameter row per type pair.
+def make_laws(config: RunConfig, type_mass: dict[int, float]
+              ) -> list[tuple[ContactLaw, list[tuple[int, int]] | None]]:
+    """The pair laws of ``[contact]``: one :class:`ContactLaw` per distinct composition with
+    its type pairs (None for the only one: it owns every pair), one table row per pair.
 
     A type pair given by restitution and contact time is converted with the effective mass
     of the two types' mean masses; a type without particles (a wall) is infinitely heavy.
     """
     contact = config.contact
     n = config.n_types()
-    law: ContactLaw = GranularLaw(n) if isinstance(contact, GranularContact) else SoftLaw(n)
-    params = contact.pair_params()
     fallback = float(np.mean(list(type_mass.values()))) if type_mass else 1.0
+    groups: dict[tuple[str, ...], tuple[ContactLaw, list[tuple[int, int]]]] = {}
     for a in range(n):
         for b in range(a, n):
-            p = dict(params.get((a, b), params[(-1, -1)]))
-            where = "contact" if (a, b) not in params else f"contact.pairs (types [{a}, {b}])"
+            models, params = contact.entry(a, b)
+            key = tuple(models[s] for s in SLOTS)
+            if key not in groups:
+                groups[key] = (ContactLaw(n, **models), [])
+            law, pairs = groups[key]
+            where = ("contact" if contact.entry(a, b) is contact.entry(-1, -1)
+                     else f"contact.pairs (types [{a}, {b}])")
             try:
-                if isinstance(contact, SoftContact):
-                    law.set_pair(a, b, **p)
-                    continue
-                if "restitution" in p:
-                    meff = _meff(type_mass.get(a), type_mass.get(b), fallback)
-                    p["kn"], p["gamma_n"] = stiffness_and_damping(
-                        p.pop("restitution"), p.pop("contact_time"), meff,
-                        p.get("damping", "mass"))
-                law.set_pair(a, b, **p)
+                meff = _meff(type_mass.get(a), type_mass.get(b), fallback)
+                law.set_pair(a, b, **law.resolve(params, meff))
             except ValueError as err:
                 raise ConfigError([f"{where}: {err}"]) from None
-    return law
+            pairs.append((a, b))
+    if len(groups) == 1:
+        return [(law, None) for law, _ in groups.values()]
+    return list(groups.values())
 
 
 def _meff(ma: float | None, mb: float | None, fallback: float) -> float:
@@ -346,48 +369,17 @@ def _meff(ma: float | None, mb: float | None, fallback: float) -> float:
     return ma * mb / (ma + mb)
 
 
-def estimate_contact_time(config: RunConfig) -> float | None:
-    """Shortest binary contact time of the generic set-up, from the populations' sizes.
-
-    Uses the lightest and smallest particle of each type (the engine's convention); None
-    when no population has a known size (e.g. only LAMMPS data files).
-    """
-    if config.contact is None or config.scenario != "generic":
-        return None
-    sizes: dict[int, tuple[float, float, float]] = {}  # type -> (min mass, min radius, mean mass)
-    for pop in config.particles:
-        if not isinstance(pop, SizedPopulation):
-            continue
-        r = np.array(pop.radius)
-        if pop.mass is not None:
-            m = np.full(r.shape, pop.mass)
-        else:
-            m = (pop.density or 1.0) * (np.pi * r**2 if config.dim == 2 else 4 / 3 * np.pi * r**3)
-        old = sizes.get(pop.type, (np.inf, np.inf, float(m.mean())))
-        sizes[pop.type] = (min(old[0], m.min()), min(old[1], r.min()), old[2])
-    if not sizes:
-        return None
-    law = make_law(config, {t: s[2] for t, s in sizes.items()})
-    best = math.inf
-    for a, (ma, ra, _) in sizes.items():
-        for b, (mb, rb, _) in sizes.items():
-            if a <= b:
-                best = min(best, law.contact_time(a, b, ma * mb / (ma + mb), ra + rb))
-    return best
-
-
 # -------------------------------------------------------------------------------- chute
 def build_chute(config: RunConfig) -> Simulation:
     """The ``chute`` scenario: LAMMPS's granular chute deck on its data file."""
-    from grainflow.io.lammps_data import read_lammps_data
-    from grainflow.scenarios.chute import CHUTE, chute_state
+    from grainflow.insertion.lammps_data import read_lammps_data
+    from grainflow.scenarios.chute import CHUTE, chute_law, chute_state
 
     if config.dim != 3:
         raise ConfigError([f"dim: {config.dim} is not valid; the chute is 3D (dim = 3)"])
     section = config.section
     state = chute_state(read_lammps_data(section.data_file), tuple(section.replicate))
-    law = GranularLaw(n_types=2)
-    law.set_all(kn=CHUTE["kn"], gamma_n=CHUTE["gamma_n"], gamma_t=0.0, mu=CHUTE["mu"])
+    law = chute_law()
     sim = make_simulation(config, state, law, default_dt=CHUTE["dt"], default_skin=CHUTE["skin"])
     sim.add_force(Gravity.chute(1.0, section.angle))
     return sim

@@ -14,6 +14,7 @@ reduced units simply write numbers. The reference of every field is ``docs/confi
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -24,6 +25,7 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Di
                       Field, PrivateAttr, Tag, ValidationError, ValidationInfo,
                       field_validator, model_validator)
 
+from grainflow.config.contact import Contact
 from grainflow.config.units import parse_quantity
 from grainflow.scenarios import COMMON_SECTIONS, Scenario, get_scenario
 
@@ -358,111 +360,6 @@ class DeleteUpdater(_Model):
     types: list[TypeId] | None = Field(None, description="only these types")
 
 
-class _GranularParams(_Model):
-    """M1/M2 parameters; see :class:`grainflow.models.granular.GranularLaw`."""
-
-    kn: quantity("stiffness", gt=0) | None = None
-    kt: quantity("stiffness", ge=0) | None = Field(None, description="default 2/7 kn")
-    gamma_n: quantity(None, ge=0) | None = Field(
-        None, description="1/s with damping='mass', kg/s with 'absolute'")
-    gamma_t: quantity(None, ge=0) | None = Field(None, description="default gamma_n / 2")
-    restitution: float | None = Field(None, gt=0, le=1, description="normal restitution e")
-    contact_time: quantity("time", gt=0) | None = None
-    mu: float | None = Field(None, ge=0, description="Coulomb friction coefficient")
-    cohesion_force: quantity("force", ge=0) | None = None
-    cohesion_range: quantity("length", ge=0) | None = None
-    damping: Literal["mass", "absolute"] | None = None
-
-    #: Fields that fix the normal spring-dashpot; a pair override replaces all of them.
-    NORMAL: ClassVar[tuple[str, ...]] = ("kn", "gamma_n", "restitution", "contact_time")
-
-    def check_complete(self) -> None:
-        """Raise ValueError unless the normal force is given one way (and only one)."""
-        by_k = self.kn is not None
-        by_e = self.restitution is not None or self.contact_time is not None
-        if by_k == by_e or (by_e and (self.restitution is None or self.contact_time is None)):
-            raise ValueError("give either kn (and optionally gamma_n) or both restitution "
-                             "and contact_time")
-        if self.gamma_n is not None and not by_k:
-            raise ValueError("gamma_n goes with kn; with restitution and contact_time the "
-                             "damping follows from them")
-        if (self.cohesion_force or 0) > 0 and not (self.cohesion_range or 0) > 0:
-            raise ValueError("cohesion_force > 0 needs cohesion_range > 0 (the shell width "
-                             f"delta_c in which it acts); got {self.cohesion_range!r}")
-
-
-class _SoftParams(_Model):
-    """M3 parameters; see :class:`grainflow.models.soft.SoftLaw`."""
-
-    epsilon: quantity("energy", gt=0) | None = None
-    mu: quantity("damping", ge=0) | None = Field(None, description="kinetic friction")
-
-    NORMAL: ClassVar[tuple[str, ...]] = ("epsilon",)
-
-    def check_complete(self) -> None:
-        if self.epsilon is None:
-            raise ValueError("epsilon: missing; the soft law needs an energy scale")
-
-
-class _PairOverride(_Model):
-    types: Annotated[list[TypeId], Field(min_length=2, max_length=2)]
-
-
-class GranularPair(_GranularParams, _PairOverride):
-    """Parameters of one type pair, overriding ``[contact]``'s."""
-
-
-class SoftPair(_SoftParams, _PairOverride):
-    """Parameters of one type pair, overriding ``[contact]``'s."""
-
-
-class _Contact(_Model):
-    PARAMS: ClassVar[type]
-
-    def pair_params(self) -> dict[tuple[int, int], dict[str, Any]]:
-        """The complete parameters of the default ``(-1, -1)`` and of every override."""
-        base = self.model_dump(exclude={"law", "pairs"}, exclude_none=True)
-        out = {(-1, -1): base}
-        for pair in self.pairs:
-            own = pair.model_dump(exclude={"types"}, exclude_none=True)
-            inherited = dict(base)
-            if any(k in own for k in pair.NORMAL):
-                for k in pair.NORMAL:
-                    inherited.pop(k, None)
-            a, b = pair.types
-            out[(min(a, b), max(a, b))] = {**inherited, **own}
-        return out
-
-    @model_validator(mode="after")
-    def _complete(self) -> "_Contact":
-        for (a, b), params in self.pair_params().items():
-            where = "" if a < 0 else f"pairs with types [{a}, {b}]: "
-            try:
-                self.PARAMS(**params).check_complete()
-            except ValueError as err:
-                raise ValueError(where + str(err)) from None
-        return self
-
-
-class GranularContact(_Contact, _GranularParams):
-    """Linear spring-dashpot with tangential history and optional cohesion (M1, M2)."""
-
-    PARAMS: ClassVar[type] = _GranularParams
-    law: Literal["granular"]
-    pairs: list[GranularPair] = []
-
-
-class SoftContact(_Contact, _SoftParams):
-    """Soft harmonic particles with kinetic friction (M3)."""
-
-    PARAMS: ClassVar[type] = _SoftParams
-    law: Literal["soft"]
-    pairs: list[SoftPair] = []
-
-
-Contact = Annotated[Union[GranularContact, SoftContact], Field(discriminator="law")]
-
-
 class _Wall(_Model):
     type: TypeId = Field(0, description="wall type: particle-wall parameters are the contact "
                          "parameters of (particle type, wall type)")
@@ -473,46 +370,127 @@ class PlaneWall(_Wall):
     """Infinite plane; particles on the side ``normal`` points to."""
 
     shape: Literal["plane"]
-    point: free_vector("length")
-    normal: free_vector(None)
+    point: free_vector("length") = Field(description="a point of the plane")
+    normal: free_vector(None) = Field(description="towards the grains")
 
 
 class SegmentWall(_Wall):
     """Finite segment ``p0``-``p1`` (2D)."""
 
     shape: Literal["segment"]
-    p0: free_vector("length")
-    p1: free_vector("length")
+    p0: free_vector("length") = Field(description="one end")
+    p1: free_vector("length") = Field(description="the other end")
+
+
+def _ordered_range(value: list[float]) -> list[float]:
+    if not value[0] < value[1]:
+        raise ValueError(f"{value!r} is not valid; expected [s_min, s_max] with s_min < s_max")
+    return value
+
+
+def range_along_axis(**constraints: Any) -> Any:
+    """``[s_min, s_max]``: two lengths (``inf`` allowed) along a wall's axis."""
+    return Annotated[list[quantity("length", allow_inf_nan=True, **constraints)],
+                     Field(min_length=2, max_length=2), AfterValidator(_ordered_range)]
+
+
+def _lid_on_a_finite_end(lid: bool, info: ValidationInfo) -> bool:
+    """A lid (``lid_lo``/``lid_hi``) closes a finite end of ``axial_range``."""
+    ends = info.data.get("axial_range")
+    if isinstance(info.data.get("axis"), str):  # a cone in LAMMPS's form: lo, hi are finite
+        return lid
+    if ends is None:  # the cone's default [0, inf], or an invalid range (reported already)
+        ends = [0.0, math.inf] if "axial_range" in info.data else [0.0, 0.0]
+    k = 0 if info.field_name == "lid_lo" else 1
+    if lid and not math.isfinite(ends[k]):
+        raise ValueError(f"a lid needs a finite end; axial_range[{k}] is {ends[k]!r}")
+    return lid
 
 
 class CylinderWall(_Wall):
-    """Infinite cylinder; ``inside`` holds grains inside (a tube), else outside (a post)."""
+    """Cylinder, infinite or over ``axial_range``; ``inside`` holds grains inside (a tube),
+    else outside (a post); ``lid_lo``/``lid_hi`` close finite ends."""
 
     shape: Literal["cylinder"]
-    axis_point: free_vector("length")
+    axis_point: free_vector("length") = Field(description="a point of the axis (s = 0)")
     axis_direction: free_vector(None) = [0.0, 0.0, 1.0]
     radius: PositiveLength
     inside: bool = True
+    axial_range: range_along_axis() = Field(
+        [-math.inf, math.inf], description="[s_min, s_max] from axis_point along the axis")
+    lid_lo: bool = Field(False, description="close the end s_min with a flat disk")
+    lid_hi: bool = Field(False, description="close the end s_max with a flat disk")
+
+    _lids = field_validator("lid_lo", "lid_hi")(_lid_on_a_finite_end)
 
 
 class ConeWall(_Wall):
-    """Finite cone: apex, axis towards the wide end, half angle, axial range from the apex."""
+    """Finite cone, given by apex, axis towards the wide end, half angle and axial range from
+    the apex, or in LAMMPS's ``region cone`` form (axis letter, centre, radii at lo and hi)."""
+
+    #: The fields of each form (``axis`` and the shared keys belong to both).
+    APEX_FORM: ClassVar[tuple[str, ...]] = ("apex", "half_angle_deg", "axial_range")
+    LAMMPS_FORM: ClassVar[tuple[str, ...]] = ("center", "radius_lo", "radius_hi", "lo", "hi")
 
     shape: Literal["cone"]
-    apex: free_vector("length")
-    axis: free_vector(None)
-    half_angle_deg: float = Field(gt=0, lt=90)
+    axis: Literal["x", "y", "z"] | free_vector(None) = Field(
+        description="apex form: the axis vector, towards the wide end; LAMMPS form: x, y or z")
+    apex: free_vector("length") | None = None
+    half_angle_deg: float | None = Field(None, gt=0, lt=90)
+    axial_range: range_along_axis(ge=0) | None = Field(
+        None, description="[s_min, s_max] from the apex; default [0, inf]")
+    center: Annotated[list[Length], Field(min_length=2, max_length=2)] | None = Field(
+        None, description="LAMMPS c1 c2: the axis' coordinates off the axis")
+    radius_lo: quantity("length", ge=0) | None = Field(None, description="radius at lo")
+    radius_hi: quantity("length", ge=0) | None = Field(None, description="radius at hi")
+    lo: Length | None = Field(None, description="lower end along the axis")
+    hi: Length | None = Field(None, description="upper end along the axis")
     inside: bool = True
-    axial_range: Annotated[list[quantity("length", ge=0, allow_inf_nan=True)],
-                           Field(min_length=2, max_length=2)] = [0.0, math.inf]
+    lid_lo: bool = Field(False, description="close the lower end with a flat disk")
+    lid_hi: bool = Field(False, description="close the upper end with a flat disk")
+
+    _lids = field_validator("lid_lo", "lid_hi")(_lid_on_a_finite_end)
+
+    @property
+    def lammps_form(self) -> bool:
+        """Given in LAMMPS's ``region cone`` form (``axis`` is a letter)."""
+        return isinstance(self.axis, str)
+
+    @model_validator(mode="after")
+    def _one_form(self) -> "ConeWall":
+        apex = [k for k in self.APEX_FORM if getattr(self, k) is not None]
+        lammps = [k for k in self.LAMMPS_FORM if getattr(self, k) is not None]
+        both = ("give either apex, axis (a vector), half_angle_deg and optionally "
+                "axial_range, or LAMMPS's form axis ('x', 'y' or 'z'), center, radius_lo, "
+                "radius_hi, lo, hi")
+        if apex and lammps:
+            raise ValueError(f"{', '.join(apex)} and {', '.join(lammps)} mix the two forms of "
+                             f"a cone; {both}")
+        if lammps and not self.lammps_form:
+            raise ValueError(f"axis: {self.axis!r} is not valid with {', '.join(lammps)} (a "
+                             "cone in LAMMPS's form); expected 'x', 'y' or 'z'")
+        if self.lammps_form:
+            missing = [k for k in self.LAMMPS_FORM if getattr(self, k) is None]
+            if missing:
+                raise ValueError(f"{', '.join(missing)}: missing for a cone in LAMMPS's form "
+                                 f"(axis = {self.axis!r}); {both}")
+            if not self.lo < self.hi:
+                raise ValueError(f"hi: {self.hi!r} is not valid; expected hi > lo = {self.lo!r}")
+            if self.radius_lo == self.radius_hi == 0:
+                raise ValueError("radius_lo, radius_hi: both 0; expected at least one radius > 0")
+            return self
+        missing = [k for k in ("apex", "half_angle_deg") if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"{', '.join(missing)}: missing; {both}")
+        return self
 
 
 class PlateWithHoleWall(_Wall):
     """Infinite plate with a circular orifice centred on ``point``."""
 
     shape: Literal["plate_with_hole"]
-    point: free_vector("length")
-    normal: free_vector(None)
+    point: free_vector("length") = Field(description="the centre of the hole")
+    normal: free_vector(None) = Field(description="towards the grains")
     hole_radius: PositiveLength
 
 
@@ -533,9 +511,21 @@ Wall = Annotated[Union[PlaneWall, SegmentWall, CylinderWall, ConeWall, PlateWith
 
 
 class ChuteSection(_Model):
-    """The ``chute`` scenario: LAMMPS's ``bench/in.chute`` deck."""
+    """The ``chute`` scenario: LAMMPS's ``bench/in.chute`` deck.
 
-    data_file: FilePath = Field(description="LAMMPS data file, e.g. peers/data.chute")
+    ``data_file`` defaults to the copy of LAMMPS's ``data.chute`` shipped with grainflow
+    (``grainflow/data/chute/data.chute.gz``, see :func:`grainflow.scenarios.chute.chute_files`).
+    """
+
+    @staticmethod
+    def _shipped_data_file() -> str:
+        from grainflow.scenarios.chute import chute_files  # imported only when defaulted
+
+        return str(chute_files().data)
+
+    data_file: FilePath = Field(
+        default_factory=_shipped_data_file,
+        description="LAMMPS data file, plain or gzip; default: the shipped data.chute.gz")
     replicate: Annotated[list[Steps], Field(min_length=2, max_length=2)] = Field(
         [1, 1], description="copies along x and y")
     angle: float = Field(26.0, gt=-90, lt=90, description="chute inclination in degrees")
@@ -584,6 +574,10 @@ def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
 
     Relative file names inside a TOML file are resolved against the file's folder (against
     the working directory for a dict). Raises :class:`ConfigError`.
+
+    What needs the built particles is checked by
+    :func:`grainflow.config.build.build_simulation` instead (``run.dt`` against the
+    stability limit of the contact time).
     """
     if isinstance(source, Mapping):
         data, base_dir = dict(source), Path.cwd()
@@ -622,7 +616,6 @@ def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
     if errors:
         raise ConfigError(errors)
     assert config is not None
-    _check_time_step(config)
     return config
 
 
@@ -643,27 +636,12 @@ def resolved_dict(config: RunConfig) -> dict[str, Any]:
     return data
 
 
-def _check_time_step(config: RunConfig) -> None:
-    """Refuse ``run.dt`` past the stability limit t_c/4 of the generic set-up."""
-    run = config.run
-    if run.dt is None or run.allow_unsafe_dt or config.contact is None:
-        return
-    from grainflow.config.build import estimate_contact_time  # imports the engine
-
-    tc = estimate_contact_time(config)
-    if tc is not None and run.dt > tc / 4:
-        raise ConfigError([
-            f"run.dt: {run.dt:g} is past the stability limit t_c/4 = {tc / 4:g} (binary "
-            f"contact time t_c = {tc:g}); expected dt <= {tc * run.dt_fraction:g} "
-            f"(dt_fraction x t_c), or leave dt out to get that value"])
-
-
 # ------------------------------------------------------------------------------ errors
 def format_errors(err: ValidationError, root: type[BaseModel], prefix: str = "") -> list[str]:
     """One ``path: value ... expected ...`` line per pydantic error."""
     lines = []
     for e in err.errors(include_url=False):
-        path, parent = _path(root, e["loc"])
+        path, parent, here = _path(root, e["loc"])
         if prefix:
             path = f"{prefix}.{path}" if path else prefix
         kind = e["type"]
@@ -680,7 +658,12 @@ def format_errors(err: ValidationError, root: type[BaseModel], prefix: str = "")
             shown = "missing" if tag is None else f"{tag!r} is not valid"
             lines.append(f"{path}.{key}: {shown}; expected one of {ctx.get('expected_tags')}")
         elif kind in ("value_error", "assertion_error"):
-            lines.append(f"{path}: {e['msg'].removeprefix('Value error, ')}")
+            msg = e["msg"].removeprefix("Value error, ")
+            field = re.match(r"([A-Za-z_]\w*)[\w\[\]\.]*: ", msg)
+            if path and field and _is_model(here) and field[1] in here.model_fields:
+                lines.append(f"{path}.{msg}")  # a model validator naming one of its fields
+            else:
+                lines.append(f"{path}: {msg}")
         else:
             msg = e["msg"]
             if msg.startswith("Input should be "):
@@ -702,8 +685,9 @@ def _is_model(t: Any) -> bool:
     return isinstance(t, type) and issubclass(t, BaseModel)
 
 
-def _path(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[str, Any]:
-    """Dotted path of a pydantic ``loc`` (union tags dropped) and the type it ends in."""
+def _path(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[str, Any, Any]:
+    """Dotted path of a pydantic ``loc`` (union tags dropped), the type holding its last
+    item, and the type it ends in."""
     text, t, parent = "", root, root
     for item in loc:
         parent = t
@@ -723,7 +707,7 @@ def _path(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[str, Any]:
         else:
             t = None
         text += f".{item}"
-    return text.lstrip("."), _unwrap(parent)
+    return text.lstrip("."), _unwrap(parent), _unwrap(t)
 
 
 def _unwrap(t: Any) -> Any:

@@ -5,7 +5,7 @@ The list holds every pair whose centre distance is below ``r_i + r_j + reach + s
 when some particle has moved more than ``skin / 2`` since the last build, which guarantees
 that no interacting pair is missed in between. Every ``sort_every`` builds the particles are
 re-ordered along the cell keys (neighbours in space become neighbours in memory); the
-contact history follows through :meth:`PairForce.reindex`.
+contact history follows through :meth:`PairInteraction.reindex`.
 """
 
 from __future__ import annotations

@@ -1,36 +1,45 @@
-"""The simulation object: state plus a list of operations, advanced step by step.
+"""The simulation object: state plus lists of operations, advanced step by step.
 
 Order of work within one step of :meth:`Simulation.run` (the same for every set-up)::
 
     1. integrator.pre_force        (VV: half kick + drift; AB2: the whole step)
     2. neighbour list: wrap periodic positions; rebuild if some particle moved > skin/2
        (every ``sort_every`` builds also re-sort particles in space, history carried along)
-    3. forces: pair law over the list (it sets force and torque; zero without a law), then
-       every operation in ``forces``
-       (walls, tethers, gravity, drag ...) in the order they were added
+    3. forces: the pair interactions over the list (the first sets force and torque; zero
+       without any), then every operation in ``forces`` (walls, tethers, gravity, drag ...)
+       in the order they were added
     4. integrator.post_force       (VV: second half kick)
     5. step += 1, time += dt
     6. updaters due this step      (insertion, deletion, reinsertion; may change N)
-    7. observers due this step     (outputs, analyses; read-only access to state/contacts)
-    8. health check every ``check_every`` steps (NaN/inf, overlap > max_overlap_fraction r)
+    7. health check every ``check_every`` steps (NaN/inf, overlap > max_overlap_fraction r)
+    8. observers due this step     (outputs, analyses; read-only access to state/contacts)
 
 Before the first step forces are evaluated once without advancing contact histories
 (LAMMPS's set-up call), unless they are already current (e.g. after a checkpoint load).
+Every evaluation outside step 3 (set-up, after an insertion, contact listing, FIRE) is
+read-only: no contact history changes, so what observers ask never alters a run.
+
+Each operation receives a narrow context, not this object
+(:mod:`grainflow.engine.operations`).
 """
 
 from __future__ import annotations
 
+import math
 import time as _time
 import warnings
 from dataclasses import dataclass
-from typing import Any, Callable, Protocol
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from grainflow.engine.forces import Force, PairForce
-from grainflow.engine.integrators import Integrator, VelocityVerlet
+from grainflow.engine.integrators import VelocityVerlet
 from grainflow.engine.neighbor_list import ListGeometry, NeighborList
-from grainflow.frame import Contacts, Frame
+from grainflow.engine.operations import (Clock, ContactRows, Force, ForceContext, Integrator,
+                                         Observer, ObserverContext, TimeScale, Updater,
+                                         UpdateContext)
+from grainflow.engine.pair import PairInteraction
+from grainflow.frame import WALL, Contacts, Frame
 from grainflow.kernels.pair_loop import max_pair_overlap, max_relative_overlap
 from grainflow.models.base import ContactLaw
 from grainflow.state import ParticleState
@@ -47,29 +56,25 @@ class InstabilityError(RuntimeError):
 
 
 class TimeStepError(ValueError):
-    """The time step is past the hard stability limit."""
-
-
-class Updater(Protocol):
-    """An operation that may insert/delete particles: ``update(sim)``."""
-
-    def update(self, sim: "Simulation") -> None: ...
+    """The time step is past the hard stability limit of some interaction."""
 
 
 @dataclass
 class _Scheduled:
     every: int
-    action: Callable[["Simulation"], None]
+    action: Callable[[Any], None]
     owner: Any
 
 
-#: dt above ``contact_time / WARN_RATIO`` warns, above ``contact_time / REFUSE_RATIO`` refuses.
-WARN_RATIO = 15.0
-REFUSE_RATIO = 4.0
+#: dt above ``t / WARN_RATIO`` warns, above ``t / REFUSE_RATIO`` refuses, for each kind of
+#: time scale: the half period of an oscillation (a contact, a tether), and the relaxation
+#: time of a velocity (drag, kinetic friction; an explicit step is unstable past 2 tau).
+WARN_RATIO = {"oscillation": 15.0, "relaxation": 5.0}
+REFUSE_RATIO = {"oscillation": 4.0, "relaxation": 1.0}
 
 
 class Simulation:
-    """State, pair law, operations and the step loop.
+    """State, pair interactions, operations and the step loop.
 
     Parameters
     ----------
@@ -78,90 +83,188 @@ class Simulation:
     dt:
         Time step.
     law:
-        The particle-particle :class:`~grainflow.models.base.ContactLaw` (None: no pair forces).
+        A :class:`~grainflow.models.base.ContactLaw` for every particle pair (the default
+        interaction; None: none). More interactions, each owning some type pairs:
+        :meth:`add_interaction`.
     skin:
-        Verlet skin; default 0.1 of the mean diameter.
+        Verlet skin; default 0.2 of the mean radius.
     integrator:
-        Default :class:`VelocityVerlet`.
+        Default :class:`~grainflow.engine.integrators.VelocityVerlet`.
+    allow_unsafe_dt:
+        Warn instead of refusing a time step past an interaction's stability limit
+        (diagnosis only).
     """
 
     def __init__(self, state: ParticleState, dt: float, law: ContactLaw | None = None, *,
                  skin: float | None = None, integrator: Integrator | None = None,
                  sort_every: int = 1, check_every: int = 100,
-                 max_overlap_fraction: float = 0.5, seed: int | None = None) -> None:
+                 max_overlap_fraction: float = 0.5, seed: int | None = None,
+                 allow_unsafe_dt: bool = False) -> None:
         if not (dt > 0 and np.isfinite(dt)):
             raise ValueError(f"dt: {dt!r} is not valid; expected a positive time step")
         self.state = state
-        self.dt = float(dt)
-        self.step = 0
-        self.time = 0.0
+        self.clock = Clock(float(dt))
         if skin is None:
             skin = 0.2 * float(np.mean(state.radius)) if state.n else 0.1
         self.neighbors = NeighborList(skin, sort_every)
         self.geometry = ListGeometry.from_state(state)
-        self.pair = PairForce(law) if law is not None else None
+        #: The context forces and integrators receive.
+        self.context = ForceContext(state, self.geometry, self.neighbors, self.clock)
+        #: The random-number generator of the run (insertion, thinning); in checkpoints.
+        self.rng = np.random.default_rng(seed)
+        self._update_context = UpdateContext(self.context, self.rng, self)
+        #: The read-only view observers receive.
+        self.observer_context = ObserverContext(state, self.clock, self)
+        self.interactions: list[PairInteraction] = []
+        self._owned_types: tuple[int, int] | None = None
         self.forces: list[Force] = []
         self.integrator = integrator or VelocityVerlet()
-        self.integrator.setup(self)
+        self.integrator.setup(self.context)
         self.updaters: list[_Scheduled] = []
         self.observers: list[_Scheduled] = []
         self.check_every = int(check_every)
+        if not (max_overlap_fraction > 0 and math.isfinite(max_overlap_fraction)):
+            raise ValueError(f"max_overlap_fraction: {max_overlap_fraction!r} is not valid; "
+                             "expected a positive finite fraction of the radius")
         self.max_overlap_fraction = float(max_overlap_fraction)
+        self.allow_unsafe_dt = bool(allow_unsafe_dt)
         self.forces_current = False
-        #: The run's random-number generator (insertion, thinning); saved in checkpoints.
-        self.rng = np.random.default_rng(seed)
         self.rebuilds = 0
         self.wall_seconds = 0.0
         self.particle_steps = 0
+        if law is not None:
+            self.add_interaction(law)
+
+    # ------------------------------------------------------------------- clock
+    @property
+    def dt(self) -> float:
+        return self.clock.dt
+
+    @dt.setter
+    def dt(self, value: float) -> None:
+        if not (value > 0 and np.isfinite(value)):
+            raise ValueError(f"dt: {value!r} is not valid; expected a positive time step")
+        self.clock.dt = float(value)
+
+    @property
+    def time(self) -> float:
+        return self.clock.time
+
+    @time.setter
+    def time(self, value: float) -> None:
+        self.clock.time = float(value)
+
+    @property
+    def step(self) -> int:
+        return self.clock.step
 
     # ----------------------------------------------------------- composition
+    def add_interaction(self, law: ContactLaw,
+                        types: Iterable[tuple[int, int]] | None = None) -> PairInteraction:
+        """Add a pair interaction through ``law`` for the type pairs ``types`` (None: every
+        type pair no other interaction owns; at most one such default)."""
+        interaction = PairInteraction(law, types)
+        mine = interaction.types or frozenset()
+        for k, other in enumerate(self.interactions):
+            if interaction.types is None and other.types is None:
+                raise ValueError("types: the simulation has a default interaction already "
+                                 f"({other!r}); name the type pairs the new one owns")
+            clash = mine & (other.types or frozenset())
+            if clash:
+                raise ValueError(f"types: {sorted(clash)} already belong to interaction {k} "
+                                 f"({other!r}); each type pair has one interaction")
+        self.interactions.append(interaction)
+        self._owned_types = None
+        self.forces_current = False
+        return interaction
+
     def add_force(self, force: Force) -> Force:
         """Append a force operation (walls, tethers, gravity, drag ...)."""
+        force.setup(self.context)
         self.forces.append(force)
-        setup = getattr(force, "setup", None)
-        if setup is not None:
-            setup(self)
         self.forces_current = False
         return force
 
-    def add_updater(self, updater: Updater | Callable[["Simulation"], None],
+    def add_updater(self, updater: Updater | Callable[[UpdateContext], None],
                     every: int = 1) -> None:
-        """Run ``updater.update(sim)`` (or ``updater(sim)``) every ``every`` steps."""
+        """Run ``updater.update(ctx)`` (or ``updater(ctx)``) every ``every`` steps, with an
+        :class:`~grainflow.engine.operations.UpdateContext`."""
+        if every < 1:
+            raise ValueError("every: updaters need an interval >= 1 step")
         action = updater.update if hasattr(updater, "update") else updater
         self.updaters.append(_Scheduled(int(every), action, updater))
 
-    def add_observer(self, observer: Callable[["Simulation"], None], every: int = 1) -> None:
-        """Call ``observer(sim)`` every ``every`` steps (after the step's updaters)."""
+    def add_observer(self, observer: Observer, every: int = 1) -> None:
+        """Call ``observer(ctx)`` every ``every`` steps (after the step's updaters), with an
+        :class:`~grainflow.engine.operations.ObserverContext`; ``observer.start(ctx)``, if
+        defined, runs when each :meth:`run` begins."""
         if every < 1:
             raise ValueError("every: observers need an interval >= 1 step")
         self.observers.append(_Scheduled(int(every), observer, observer))
+
+    @property
+    def walls(self) -> tuple:
+        """Every analytic wall shape, numbered as in saved contacts (``Contacts.j``)."""
+        return tuple(w for f in self.forces for w in f.walls)
 
     # -------------------------------------------------------- particle edits
     def add_particles(self, x: np.ndarray, radius: np.ndarray | float, **kw: Any) -> np.ndarray:
         """Insert particles (see :meth:`ParticleState.add_particles`); forces are refreshed."""
         idx = self.state.add_particles(x, radius, **kw)
-        if self.pair is not None:
-            self.pair.law.ensure_types(int(self.state.type.max()) + 1)
         self.forces_current = False
         return idx
 
     def remove_particles(self, mask: np.ndarray) -> np.ndarray:
         """Delete particles where ``mask`` is true; contact histories follow."""
         old_to_new = self.state.remove(mask)
-        if self.pair is not None:
-            self.pair.reindex(old_to_new)
+        for op in (*self.interactions, *self.forces):
+            op.reindex(old_to_new)
         self.forces_current = False
         return old_to_new
 
+    def relocate(self, index: np.ndarray, x: np.ndarray, v: np.ndarray | None = None,
+                 omega: np.ndarray | None = None) -> None:
+        """Move particles (a reinsertion): their pair and wall contact histories and their
+        integrator memory (e.g. Adams-Bashforth's previous force) restart."""
+        index = np.atleast_1d(np.asarray(index, dtype=np.int64))
+        for interaction in self.interactions:
+            interaction.forget(index, self.context)
+        self.state.relocate(index, x, v, omega)
+        self.forces_current = False
+
     # ------------------------------------------------------------- forces
+    def _assign_types(self) -> None:
+        """Give each interaction its ``use`` matrix over the types present and named."""
+        st = self.state
+        key = (st.generation, len(self.interactions))
+        if key == self._owned_types:
+            return
+        n = max([int(st.type.max()) + 1 if st.n else 1]
+                + [max(max(p) for p in i.types) + 1 for i in self.interactions if i.types])
+        claimed = np.zeros((n, n), dtype=bool)
+        for i in self.interactions:
+            if i.types is not None:
+                use = np.zeros((n, n), dtype=bool)
+                for a, b in i.types:
+                    use[a, b] = use[b, a] = True
+                claimed |= use
+                i.owns(use, False)
+        for i in self.interactions:
+            if i.types is None:
+                i.owns(~claimed, not claimed.any())
+        self._owned_types = key
+
+    def reach(self) -> float:
+        """Largest reach beyond touching of the pair interactions (the list's margin)."""
+        return max((i.law.reach() for i in self.interactions), default=0.0)
+
     def _refresh_list(self) -> None:
         st = self.state
         nl = self.neighbors
         if not nl.needs_build(st, self.geometry):
             return
-        reach = self.pair.law.reach() if self.pair is not None else 0.0
         nl.wrap(st, self.geometry)
-        cells = nl.cell_order(st, self.geometry, reach)
+        cells = nl.cell_order(st, self.geometry, self.reach())
         new_to_old = None
         if nl.sort_due() and st.n:
             new_to_old = cells[2]
@@ -170,22 +273,26 @@ class Simulation:
             st.reindex(old_to_new)
             cells = nl.in_new_order(cells)
         nl.build(st, self.geometry, cells)
-        if self.pair is not None:
+        for interaction in self.interactions:
             # the pair history follows the re-sort and the rebuild in one pass
-            self.pair.attach(nl.row_ptr, nl.nbr, new_to_old)
+            interaction.attach(nl.row_ptr, nl.nbr, new_to_old)
         self.rebuilds += 1
 
     def compute_forces(self, update: bool = True) -> None:
-        """Zero and recompute all forces and torques at the current positions."""
+        """Recompute all forces and torques at the current positions.
+
+        ``update=False`` is a read-only evaluation: no contact history changes.
+        """
         st = self.state
+        self._assign_types()
         self._refresh_list()
-        if self.pair is not None:
-            self.pair.compute(self, update)  # sets (not adds) force and torque
-        else:
+        for k, interaction in enumerate(self.interactions):
+            interaction.compute(self.context, update, first=k == 0)
+        if not self.interactions:
             st.force[:] = 0.0
             st.torque[:] = 0.0
         for f in self.forces:
-            f.compute(self, update)
+            f.compute(self.context, update)
         self.forces_current = True
 
     # ---------------------------------------------------------------- run
@@ -196,61 +303,83 @@ class Simulation:
         self.check_time_step()
         if not self.forces_current:
             self.compute_forces(update=False)
+        for o in self.observers:
+            start = getattr(o.owner, "start", None)
+            if start is not None:
+                start(self.observer_context)
         integ = self.integrator
+        ctx = self.context
+        clock = self.clock
         t0 = _time.perf_counter()
         for _ in range(steps):
-            integ.pre_force(self)
+            integ.pre_force(ctx)
             self.compute_forces(update=True)
-            integ.post_force(self)
-            self.step += 1
-            self.time += self.dt
+            integ.post_force(ctx)
+            clock.step += 1
+            clock.time += clock.dt
             self.particle_steps += self.state.n
             for u in self.updaters:
-                if self.step % u.every == 0:
-                    u.action(self)
+                if clock.step % u.every == 0:
+                    u.action(self._update_context)
             if not self.forces_current:
                 self.compute_forces(update=False)
-            if self.check_every and self.step % self.check_every == 0:
+            if self.check_every and clock.step % self.check_every == 0:
                 self.check_health()
             for o in self.observers:
-                if self.step % o.every == 0:
-                    o.action(self)
+                if clock.step % o.every == 0:
+                    o.action(self.observer_context)
             if until is not None and until(self):
                 break
         self.wall_seconds += _time.perf_counter() - t0
 
     # ------------------------------------------------------------ checks
+    def time_scales(self) -> list[TimeScale]:
+        """Every time scale the interactions and operations need resolved."""
+        self._assign_types()
+        return [s for op in (*self.interactions, *self.forces)
+                for s in op.time_scales(self.context)]
+
     def contact_time(self) -> float:
-        """Shortest binary contact time over the type pairs present (inf without a law)."""
-        if self.pair is None or self.state.n == 0:
-            return float("inf")
-        st = self.state
-        law = self.pair.law
-        best = float("inf")
-        types = np.unique(st.type)
-        for a in types:
-            ma = float(st.mass[st.type == a].min())
-            ra = float(st.radius[st.type == a].min())
-            for b in types[types >= a]:
-                mb = float(st.mass[st.type == b].min())
-                rb = float(st.radius[st.type == b].min())
-                best = min(best, law.contact_time(int(a), int(b), ma * mb / (ma + mb), ra + rb))
-        return best
+        """Shortest oscillation time (contact, wall contact, tether) present (inf if none)."""
+        return min((s.time for s in self.time_scales() if s.kind == "oscillation"),
+                   default=math.inf)
+
+    def stable_time_step(self, fraction: float = 0.02) -> float:
+        """``fraction`` of the shortest oscillation time, and at most the warning bound of
+        every relaxation time (inf when there is neither)."""
+        dt = math.inf
+        for s in self.time_scales():
+            if s.kind == "oscillation":
+                dt = min(dt, fraction * s.time)
+            else:
+                dt = min(dt, s.time / WARN_RATIO[s.kind])
+        return dt
 
     def check_time_step(self) -> None:
-        """Warn if ``dt > t_c/15``; refuse (TimeStepError) if ``dt > t_c/4``."""
-        tc = self.contact_time()
-        if not np.isfinite(tc):
+        """Refuse (:class:`TimeStepError`) a dt past ``t/4`` of an oscillation time or past a
+        relaxation time; warn past ``t/15`` or ``tau/5``. The message names the interaction
+        that limits dt. With ``allow_unsafe_dt`` the refusal is a warning."""
+        scales = self.time_scales()
+        if not scales:
             return
-        if self.dt > tc / REFUSE_RATIO:
-            raise TimeStepError(
-                f"dt: {self.dt:g} exceeds the hard limit t_c/{REFUSE_RATIO:g} = "
-                f"{tc / REFUSE_RATIO:g} (contact time t_c = {tc:g}); use dt <= {tc / 50:g} "
-                f"(t_c/50, seed 002's choice)")
-        if self.dt > tc / WARN_RATIO:
-            warnings.warn(f"dt = {self.dt:g} is larger than t_c/{WARN_RATIO:g} = "
-                          f"{tc / WARN_RATIO:g}: contacts are resolved by few steps; "
-                          f"t_c/50 = {tc / 50:g} is safer", stacklevel=2)
+        worst = max(scales, key=lambda s: REFUSE_RATIO[s.kind] / s.time)
+        limit = worst.time / REFUSE_RATIO[worst.kind]
+        safe = min(s.time / WARN_RATIO[s.kind] for s in scales)
+        if self.dt > limit:
+            message = (f"dt: {self.dt:g} exceeds the stability limit {limit:g} set by "
+                       f"{worst.source} ({worst.kind} time {worst.time:g}); use dt <= "
+                       f"{safe:g}")
+            if not self.allow_unsafe_dt:
+                raise TimeStepError(message)
+            warnings.warn(message + "; running anyway (allow_unsafe_dt)", stacklevel=2)
+            return
+        tight = [s for s in scales if self.dt > s.time / WARN_RATIO[s.kind]]
+        if tight:
+            s = min(tight, key=lambda s: s.time / WARN_RATIO[s.kind])
+            warnings.warn(f"dt = {self.dt:g} is larger than {s.time / WARN_RATIO[s.kind]:g} "
+                          f"({s.kind} time {s.time:g} of {s.source} / "
+                          f"{WARN_RATIO[s.kind]:g}): it is resolved by few steps; "
+                          f"dt <= {safe:g} is safer", stacklevel=2)
 
     def max_overlap(self) -> float:
         """Largest particle-particle or particle-wall overlap now."""
@@ -259,55 +388,81 @@ class Simulation:
         best = float(max_pair_overlap(self.neighbors.row_ptr, self.neighbors.nbr, st.x,
                                       st.radius, self.geometry.length, self.geometry.periodic))
         for f in self.forces:
-            wall_overlap = getattr(f, "max_overlap", None)
-            if wall_overlap is not None:
-                best = max(best, float(wall_overlap(self)))
+            best = max(best, f.max_overlap(self.context)[0])
         return best
 
     def check_health(self) -> None:
-        """Raise :class:`InstabilityError` on non-finite state or excessive overlap."""
+        """Raise :class:`InstabilityError` on non-finite state or excessive overlap (with
+        another particle or a wall)."""
         st = self.state
         for name in ("x", "v", "omega"):
             if np.isfinite(st.arrays[name]).all():
                 continue
             bad = ~np.isfinite(st.arrays[name]).all(axis=1)
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise InstabilityError(
-                    self.step, int(st.id[i]),
-                    f"non-finite {name}; the time step dt = {self.dt:g} is probably too large "
-                    f"for the contact time t_c = {self.contact_time():g}")
-        if st.n and self.pair is not None:
-            frac = self._max_overlap_fraction()
-            if frac[0] > self.max_overlap_fraction:
-                raise InstabilityError(
-                    self.step, int(st.id[frac[1]]),
-                    f"overlap {frac[0]:.3g} of the radius exceeds max_overlap_fraction = "
-                    f"{self.max_overlap_fraction:g}; particles are too soft for the load or "
-                    f"dt = {self.dt:g} is too large for t_c = {self.contact_time():g}")
+            i = int(np.argmax(bad))
+            raise InstabilityError(
+                self.step, int(st.id[i]),
+                f"non-finite {name}; the time step dt = {self.dt:g} is probably too large "
+                f"for the shortest time scale {self._shortest_scale()}")
+        if not st.n:
+            return
+        frac, i, what = self._max_overlap_fraction()
+        for f in self.forces:
+            _, wall_frac, wall_i = f.max_overlap(self.context)
+            if wall_frac > frac:
+                frac, i, what = wall_frac, wall_i, f"with a wall ({type(f).__name__})"
+        if frac > self.max_overlap_fraction:
+            raise InstabilityError(
+                self.step, int(st.id[i]),
+                f"overlap {frac:.3g} of the radius {what} exceeds max_overlap_fraction = "
+                f"{self.max_overlap_fraction:g}; particles are too soft for the load or "
+                f"dt = {self.dt:g} is too large for {self._shortest_scale()}")
 
-    def _max_overlap_fraction(self) -> tuple[float, int]:
+    def _shortest_scale(self) -> str:
+        scales = self.time_scales()
+        if not scales:
+            return "(no time scale)"
+        s = min(scales, key=lambda s: s.time / REFUSE_RATIO[s.kind])
+        return f"the {s.kind} time {s.time:g} of {s.source}"
+
+    def _max_overlap_fraction(self) -> tuple[float, int, str]:
         st = self.state
         nl = self.neighbors
-        if nl.n_pairs == 0:
-            return 0.0, 0
+        if nl.n_pairs == 0 or not self.interactions:
+            return 0.0, 0, "between particles"
         g = self.geometry
         rel, row = max_relative_overlap(nl.row_ptr, nl.nbr, st.x, st.radius, g.length,
                                         g.periodic)
-        return float(rel), int(row)
+        return float(rel), int(row), "between particles"
 
     # ----------------------------------------------------------- outputs
     def contacts(self) -> Contacts:
-        """Current interacting pairs (ids, force on i, branch vector), copies."""
-        d = self.state.dim
-        if self.pair is None:
-            e = np.zeros(0, dtype=np.int64)
-            return Contacts(e, e.copy(), np.zeros((0, d)), np.zeros((0, d)))
+        """Every force between two bodies now: pair contacts, wall contacts (``j``: the
+        wall's index in :attr:`walls`), bonds and anchors (copies; read-only)."""
         if not self.forces_current:
             self.compute_forces(update=False)
-        pi, pj, f, b = self.pair.contacts(self)
+        rows: list[ContactRows] = []
+        wall_offset = 0
         ids = self.state.id
-        return Contacts(ids[pi], ids[pj], f[:, :d], b[:, :d])
+        for op in (*self.interactions, *self.forces):
+            for r in op.contacts(self.context):
+                if r.kind == WALL:
+                    j = r.j + wall_offset
+                else:  # particle indices to ids; -1 (an anchor) stays
+                    j = np.where(r.j >= 0, ids[np.maximum(r.j, 0)], -1)
+                rows.append(ContactRows(ids[r.i], j, r.kind, r.force, r.branch))
+            wall_offset += len(op.walls)
+        d = self.state.dim
+        if not rows:
+            e = np.zeros(0, dtype=np.int64)
+            return Contacts(e, e.copy(), np.zeros((0, d)), np.zeros((0, d)),
+                            np.zeros(0, dtype=np.int8))
+        return Contacts(np.concatenate([r.i for r in rows]).astype(np.int64),
+                        np.concatenate([r.j for r in rows]).astype(np.int64),
+                        np.concatenate([r.force for r in rows])[:, :d],
+                        np.concatenate([r.branch for r in rows])[:, :d],
+                        np.concatenate([np.full(r.i.size, r.kind, dtype=np.int8)
+                                        for r in rows]))
 
     def frame(self, contacts: bool = False) -> Frame:
         """A copy of the current state as a :class:`Frame`."""
@@ -323,7 +478,7 @@ class Simulation:
         or plain Python scalars/dicts; nested dicts mirror the operations' names.
         """
         nl = self.neighbors
-        data: dict[str, Any] = {
+        return {
             "step": self.step, "time": self.time, "dt": self.dt,
             "particle_steps": self.particle_steps,
             "forces_current": self.forces_current,
@@ -332,26 +487,24 @@ class Simulation:
             "neighbors": {"row_ptr": nl.row_ptr.copy(), "nbr": nl.nbr.copy(),
                           "col_ptr": nl.col_ptr.copy(), "col_pair": nl.col_pair.copy(),
                           "x_ref": nl._x_ref.copy(), "builds": nl.builds},
-            "pair": self.pair.state_dict() if self.pair is not None else {},
+            "interactions": {str(k): i.state_dict() for k, i in enumerate(self.interactions)},
             "forces": {str(k): f.state_dict() for k, f in enumerate(self.forces)},
             "updaters": {str(k): u.owner.state_dict() for k, u in enumerate(self.updaters)
                          if hasattr(u.owner, "state_dict")},
             "rng": self.rng.bit_generator.state,
         }
-        return data
 
     def load_state_dict(self, data: dict[str, Any]) -> None:
         """Restore a :meth:`state_dict` into a simulation built with the same operations."""
         st = self.state
-        arrays = data["arrays"]
-        for name, arr in arrays.items():
+        for name, arr in data["arrays"].items():
             if name not in st.arrays:
                 st.add_array(name, arr.shape[1:], arr.dtype)
             st.arrays[name] = np.array(arr, dtype=st.arrays[name].dtype)
         st._next_id = int(data["next_id"])
         st.generation += 1
-        self.step = int(data["step"])
-        self.time = float(data["time"])
+        self.clock.step = int(data["step"])
+        self.clock.time = float(data["time"])
         self.dt = float(data["dt"])
         self.particle_steps = int(data.get("particle_steps", 0))
         nl = self.neighbors
@@ -362,9 +515,13 @@ class Simulation:
         nl._x_ref = np.asarray(nb["x_ref"], dtype=np.float64)
         nl.builds = int(nb["builds"])
         nl._generation = st.generation
-        if self.pair is not None:
-            self.pair.load_state_dict(data["pair"])
-            if self.pair.active.shape[0] != nl.n_pairs:
+        saved = data.get("interactions", {})
+        if len(saved) != len(self.interactions):
+            raise ValueError(f"checkpoint: holds {len(saved)} pair interaction(s), the "
+                             f"simulation has {len(self.interactions)}")
+        for k, interaction in enumerate(self.interactions):
+            interaction.load_state_dict(saved[str(k)])
+            if interaction.active.shape[0] != nl.n_pairs:
                 raise ValueError("checkpoint: pair history does not match the neighbour list")
         for k, f in enumerate(self.forces):
             f.load_state_dict(data["forces"].get(str(k), {}))
@@ -378,7 +535,6 @@ class Simulation:
 
     def memory_bytes(self) -> dict[str, int]:
         """Bytes held by particle state, neighbour list and contact history."""
-        hist = self.pair.nbytes() if self.pair is not None else 0
-        hist += sum(f.nbytes() for f in self.forces)
+        hist = sum(op.nbytes() for op in (*self.interactions, *self.forces))
         return {"state": int(sum(a.nbytes for a in self.state.arrays.values())),
                 "neighbors": self.neighbors.nbytes(), "history": int(hist)}

@@ -31,18 +31,16 @@ axes.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
-from grainflow.engine.forces import Force
+from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
+from grainflow.frame import ANCHOR, BOND
 from grainflow.kernels.neighbors import minimum_image
-
-if TYPE_CHECKING:
-    from grainflow.engine.simulation import Simulation
-    from grainflow.state import ParticleState
+from grainflow.state import ParticleState
 
 
 @njit(cache=True, parallel=True)
@@ -85,7 +83,7 @@ def _bond_forces(pairs, l0, k, eta, x, v, frozen, box_len, periodic, force):
             force[j, 2] -= s * n2
 
 
-def neighbor_bonds(state: "ParticleState", ids: np.ndarray, cutoff: float) -> np.ndarray:
+def neighbor_bonds(state: ParticleState, ids: np.ndarray, cutoff: float) -> np.ndarray:
     """Pairs (B, 2) of the given particle ids whose centres are closer than ``cutoff``
     (seed 002's wall particles are tied "to each other": use ``cutoff`` a little above the
     lattice spacing)."""
@@ -94,7 +92,7 @@ def neighbor_bonds(state: "ParticleState", ids: np.ndarray, cutoff: float) -> np
     return np.asarray(ids, dtype=np.int64)[pairs.reshape(-1, 2)]
 
 
-def _indices_of(state: "ParticleState", ids: np.ndarray, name: str) -> np.ndarray:
+def _indices_of(state: ParticleState, ids: np.ndarray, name: str) -> np.ndarray:
     """Current indices of ``ids``; ValueError naming ``name`` if one does not exist."""
     idx = _resolve(state.id, ids)
     if np.any(idx < 0):
@@ -159,9 +157,9 @@ class Tethers(Force):
         self._idx = np.zeros(0, dtype=np.int64)
         self._pairs = np.zeros((0, 2), dtype=np.int64)
 
-    def setup(self, sim: "Simulation") -> None:
+    def setup(self, ctx: ForceContext) -> None:
         """Fix anchors (default: current positions) and rest lengths; check bodies."""
-        st = sim.state
+        st = ctx.state
         idx = _indices_of(st, self.ids, "ids")
         if self.anchor is None:
             self.anchor = st.x[idx].copy()
@@ -173,11 +171,7 @@ class Tethers(Force):
             full[:, : a.shape[1]] = a
             self.anchor = full
         pairs = _indices_of(st, self.bond_ids.ravel(), "bonds").reshape(-1, 2)
-        d = st.x[pairs[:, 0]] - st.x[pairs[:, 1]]
-        g = sim.geometry
-        for a in np.nonzero(g.periodic)[0]:
-            d[:, a] -= g.length[a] * np.rint(d[:, a] / g.length[a])
-        self.l0 = np.linalg.norm(d, axis=1)
+        self.l0 = np.linalg.norm(_branch(st.x[pairs[:, 0]], st.x[pairs[:, 1]], ctx), axis=1)
         if np.any(self.l0 == 0.0):
             raise ValueError("bonds: a bonded pair sits at one point; bond distinct particles")
         body = st.body[idx]
@@ -188,22 +182,68 @@ class Tethers(Force):
                 "pairs interact only through the tethers (M5); add them with "
                 "sim.add_particles(..., body=b), or pass allow_wall_contacts=True")
 
-    def _refresh_indices(self, st: "ParticleState") -> None:
+    def _refresh_indices(self, st: ParticleState) -> None:
         if st.generation == self._generation:
             return
         self._idx = _resolve(st.id, self.ids)
         self._pairs = _resolve(st.id, self.bond_ids.ravel()).reshape(-1, 2)
         self._generation = st.generation
 
-    def compute(self, sim: "Simulation", update: bool) -> None:
-        st = sim.state
+    def compute(self, ctx: ForceContext, update: bool) -> None:
+        st = ctx.state
         self._refresh_indices(st)
-        g = sim.geometry
+        g = ctx.geometry
         _anchor_forces(self._idx, self.anchor, self.k, self.eta, st.x, st.v, st.frozen,
                        g.length, g.periodic, st.force)
         if self._pairs.shape[0]:
             _bond_forces(self._pairs, self.l0, self.k, self.eta, st.x, st.v, st.frozen,
                          g.length, g.periodic, st.force)
+
+    def contacts(self, ctx: ForceContext) -> list[ContactRows]:
+        """Anchor springs (partner -1, branch from the anchor to the particle) and bonds
+        (branch from j to i), with the force each exerts on its particle i."""
+        st = ctx.state
+        self._refresh_indices(st)
+        a = self._idx[self._idx >= 0]
+        anchor = self.anchor[self._idx >= 0]
+        d = _branch(st.x[a], anchor, ctx)
+        f = -self.k * d - self.eta * st.v[a]
+        f[st.frozen[a]] = 0.0
+        rows = [ContactRows(a, np.full(a.size, -1), ANCHOR, f, d)]
+        pairs = self._pairs[np.all(self._pairs >= 0, axis=1)]
+        if pairs.size:
+            i, j = pairs[:, 0], pairs[:, 1]
+            d = _branch(st.x[i], st.x[j], ctx)
+            r = np.linalg.norm(d, axis=1)
+            n = d / r[:, None]
+            vn = np.einsum("ij,ij->i", st.v[i] - st.v[j], n)
+            l0 = self.l0[np.all(self._pairs >= 0, axis=1)]
+            rows.append(ContactRows(i, j, BOND, (-self.k * (r - l0) - self.eta * vn)[:, None] * n,
+                                    d))
+        return rows
+
+    def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
+        """Half period ``pi sqrt(m / k_max)`` and relaxation time ``m / eta_max`` of the
+        lightest tethered particle, with ``k_max = k (1 + 2 z)`` for ``z`` bonds, the
+        largest stiffness one particle can feel (Gershgorin's bound)."""
+        st = ctx.state
+        self._refresh_indices(st)
+        idx = self._idx[self._idx >= 0]
+        idx = idx[~st.frozen[idx]]
+        if idx.size == 0 or self.k == 0 and self.eta == 0:
+            return []
+        bonds = self._pairs[np.all(self._pairs >= 0, axis=1)].ravel()
+        z = np.bincount(bonds, minlength=st.n)[idx] if bonds.size else np.zeros(idx.size)
+        factor = 1.0 + 2.0 * float(z.max())
+        m = float(st.mass[idx].min())
+        out = []
+        if self.k > 0:
+            out.append(TimeScale(np.pi * np.sqrt(m / (factor * self.k)), "oscillation",
+                                 f"tethers (k = {self.k:g})"))
+        if self.eta > 0:
+            out.append(TimeScale(m / (factor * self.eta), "relaxation",
+                                 f"tethers (eta = {self.eta:g})"))
+        return out
 
     def state_dict(self) -> dict[str, Any]:
         return {"ids": self.ids.copy(), "anchor": self.anchor.copy(),
@@ -215,3 +255,12 @@ class Tethers(Force):
         self.bond_ids = np.asarray(data["bond_ids"], dtype=np.int64).reshape(-1, 2)
         self.l0 = np.asarray(data["l0"], dtype=np.float64)
         self._generation = -1
+
+
+def _branch(xi: np.ndarray, xj: np.ndarray, ctx: ForceContext) -> np.ndarray:
+    """``xi - xj`` with the minimum image on periodic axes."""
+    d = xi - xj
+    g = ctx.geometry
+    for a in np.nonzero(g.periodic)[0]:
+        d[:, a] -= g.length[a] * np.rint(d[:, a] / g.length[a])
+    return d

@@ -1,29 +1,27 @@
 """Insertion and deletion updaters (SPEC M8): pouring, deleting, replenishing.
 
-Each is an updater for :meth:`Simulation.add_updater` (``update(sim)`` runs every
-``every`` steps, after the step's integration) with ``state_dict()`` /
-``load_state_dict()`` for its counters, so checkpoints resume them exactly. New grains are
-placed without overlap with the grains present (:func:`random_fill`, with the run's
-``sim.rng``) and added through ``sim.add_particles``; deletions go through
-``sim.remove_particles``, so contact histories and every registered per-particle array
-(wall histories included) follow.
+Each is an :class:`~grainflow.engine.operations.Updater` for
+:meth:`Simulation.add_updater` (``update(ctx)`` runs every ``every`` steps, after the step's
+integration) with ``state_dict()`` / ``load_state_dict()`` for its counters, so checkpoints
+resume them exactly. New grains are placed without overlap with the grains present
+(:func:`random_fill`, with the run's ``ctx.rng``) and added through ``ctx.add_particles``;
+deletions go through ``ctx.remove_particles``, so contact histories and every registered
+per-particle array (wall histories included) follow.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
+from grainflow.engine.operations import Updater, UpdateContext
 from grainflow.insertion.random_fill import random_fill
 from grainflow.insertion.regions import Region, region_dim_check
 from grainflow.insertion.sizes import SizeDistribution
 
-if TYPE_CHECKING:
-    from grainflow.engine.simulation import Simulation
 
-
-class _Inserter:
+class _Inserter(Updater):
     """What the inserting updaters share: grain sizes, density, velocity and type."""
 
     def __init__(self, region: Region, sizes: SizeDistribution, density: float,
@@ -41,15 +39,15 @@ class _Inserter:
         self.type = int(type)
         self.max_attempts = int(max_attempts)
 
-    def _insert(self, sim: "Simulation", n: int) -> int:
+    def _insert(self, ctx: UpdateContext, n: int) -> int:
         """Place up to ``n`` grains in the region without overlap; return how many."""
-        st = sim.state
+        st = ctx.state
         region_dim_check(self.region, st.dim)
-        x, r = random_fill(self.region, n, self.sizes, sim.rng, existing_x=st.x,
+        x, r = random_fill(self.region, n, self.sizes, ctx.rng, existing_x=st.x,
                            existing_radius=st.radius, max_attempts=self.max_attempts,
                            partial=True)
         if r.size:
-            sim.add_particles(x, r, density=self.density,
+            ctx.add_particles(x, r, density=self.density,
                               v=np.broadcast_to(self.velocity, x.shape), type=self.type)
         return int(r.size)
 
@@ -84,12 +82,12 @@ class Pour(_Inserter):
     def done(self) -> bool:
         return self.total is not None and self.inserted >= self.total
 
-    def update(self, sim: "Simulation") -> None:
+    def update(self, ctx: UpdateContext) -> None:
         self.owed += self.per_insertion
         if self.total is not None:
             self.owed = min(self.owed, self.total - self.inserted)
         if self.owed > 0:
-            added = self._insert(sim, self.owed)
+            added = self._insert(ctx, self.owed)
             self.inserted += added
             self.owed -= added
 
@@ -101,7 +99,7 @@ class Pour(_Inserter):
         self.owed = int(data["owed"])
 
 
-class DeleteRegion:
+class DeleteRegion(Updater):
     """Remove grains whose centre is outside ``region`` (``outside=True``: grains that left
     the region of interest, e.g. fell below ``HalfSpace((0, 0, z0), (0, 0, 1))``) or inside
     it (``outside=False``: a sink). ``types`` restricts it to some particle types; frozen
@@ -114,15 +112,15 @@ class DeleteRegion:
         self.types = None if types is None else list(types)
         self.removed = 0
 
-    def update(self, sim: "Simulation") -> None:
-        st = sim.state
+    def update(self, ctx: UpdateContext) -> None:
+        st = ctx.state
         region_dim_check(self.region, st.dim)
         inside = self.region.contains(st.x)
         mask = (~inside if self.outside else inside) & _type_mask(st.type, self.types)
         mask &= ~st.frozen
         k = int(mask.sum())
         if k:
-            sim.remove_particles(mask)
+            ctx.remove_particles(mask)
             self.removed += k
 
     def state_dict(self) -> dict[str, Any]:
@@ -156,15 +154,15 @@ class ReplenishTo(_Inserter):
         self.types = None if types is None else list(types)
         self.inserted = 0
 
-    def count(self, sim: "Simulation") -> int:
+    def count(self, ctx: UpdateContext) -> int:
         """Grains now in ``count_region``."""
-        st = sim.state
+        st = ctx.state
         return int(np.sum(self.count_region.contains(st.x) & _type_mask(st.type, self.types)))
 
-    def update(self, sim: "Simulation") -> None:
-        missing = self.target - self.count(sim)
+    def update(self, ctx: UpdateContext) -> None:
+        missing = self.target - self.count(ctx)
         if missing > 0:
-            self.inserted += self._insert(sim, missing)
+            self.inserted += self._insert(ctx, missing)
 
     def state_dict(self) -> dict[str, Any]:
         return {"inserted": self.inserted}

@@ -6,9 +6,10 @@ every per-particle quantity is an H5MD time-dependent element ``{step, time, val
 varies between frames, so frame ``k`` occupies rows ``[:n_k]`` of ``value[k]`` and the rest is
 the dataset's fill value (-1 for integers, NaN for floats), as H5MD prescribes for ``id``;
 ``n_k`` is also stored explicitly in ``/observables/particle_number``. Contacts are stored the
-same way (pairs of ids in ``/connectivity/contacts``, force and branch vectors in
-``/observables/contacts``). All elements share one ``step`` and one ``time`` dataset (hard
-links).
+same way ((i, j) in ``/connectivity/contacts``; force, branch vector and the int8 kind code of
+the partner, :data:`~grainflow.frame.CONTACT_KINDS`, in ``/observables/contacts``). A file
+written before kinds were stored has no ``kind`` dataset and reads back with every contact a
+particle pair. All elements share one ``step`` and one ``time`` dataset (hard links).
 
 Durability: the file is written in HDF5 SWMR mode, whose ordered metadata flushes keep the
 file consistent at every instant. :meth:`TrajectoryWriter.append` writes a frame's data and
@@ -16,7 +17,8 @@ time, flushes, and only then extends ``step`` and flushes again, so a frame exis
 ``step`` covers it (``len(step)`` is the frame count; other datasets may be one longer).
 A writer killed at any moment leaves all earlier frames readable. HDF5 then still marks the
 file "open for writing"; the readers here open it in SWMR read mode, which accepts that, and
-``TrajectoryWriter(..., append=True)`` rewrites such a file cleanly before appending.
+``TrajectoryWriter(..., append=True)`` rewrites such a file cleanly before appending (and, the
+same way, a file written before contact kinds were stored, into the current layout).
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ import h5py
 import numpy as np
 
 from grainflow import __version__
-from grainflow.frame import Box, Contacts, Frame
+from grainflow.frame import CONTACT_KINDS, PAIR, Box, Contacts, Frame
 
 __all__ = ["TrajectoryWriter", "count_frames", "read_frame", "read_frames"]
 
@@ -80,9 +82,11 @@ _PARTICLE_FIELDS = (
     _Field("omega", f"{_PARTICLES}/omega", "f8", 3, np.nan),
 )
 _CONTACT_PAIRS = _Field("pair", "connectivity/contacts", "i8", 2, -1)
+_CONTACT_KIND = _Field("kind", "observables/contacts/kind", "i1", None, -1)
 _CONTACT_FIELDS = (
     _Field("force", "observables/contacts/force", "f8", "dim", np.nan),
     _Field("branch", "observables/contacts/branch", "f8", "dim", np.nan),
+    _CONTACT_KIND,
 )
 _BOX_ELEMENTS = (f"{_PARTICLES}/box/edges", f"{_PARTICLES}/box/offset")
 _COMPRESSIONS = ("gzip", "lzf", None)
@@ -235,6 +239,12 @@ class TrajectoryWriter:
         for fld in _CONTACT_FIELDS:
             expected = (m, *fld.trailing(self.dim))
             _check_shape(where, f"frame.contacts.{fld.attr}", getattr(c, fld.attr), expected)
+        kind = np.asarray(c.kind)
+        if m and not (kind.dtype.kind in "iu" and 0 <= kind.min() and kind.max() < len(CONTACT_KINDS)):
+            raise ValueError(
+                f"{where}: frame.contacts.kind must hold integer codes 0..{len(CONTACT_KINDS) - 1} "
+                f"({', '.join(CONTACT_KINDS)}); got {np.unique(kind)[:8]}"
+            )
 
 
 def count_frames(path: str | os.PathLike[str]) -> int:
@@ -311,6 +321,7 @@ def _create_layout(
         f[_CONTACT_PAIRS.element].attrs["particles_group"] = f[_PARTICLES].ref
         for fld in _CONTACT_FIELDS:
             per_row(fld)
+        f[_CONTACT_KIND.element].attrs["names"] = np.array([n.encode() for n in CONTACT_KINDS], dtype="S8")
         per_frame(_CONTACT_NUMBER, "i8")
 
 
@@ -401,8 +412,10 @@ def _read(f: h5py.File, k: int) -> Frame:
     if has_contacts:
         m = int(f[_CONTACT_NUMBER + "/value"][k])
         pair = f[_CONTACT_PAIRS.element + "/value"][k, :m]
-        force, branch = (f[fld.element + "/value"][k, :m] for fld in _CONTACT_FIELDS)
-        contacts = Contacts(i=pair[:, 0].copy(), j=pair[:, 1].copy(), force=force, branch=branch)
+        data = {fld.attr: f[fld.element + "/value"][k, :m] for fld in _CONTACT_FIELDS if fld.element in f}
+        # a file written before contact kinds were stored has no kind: every contact is a pair
+        data.setdefault("kind", np.full(m, PAIR, dtype=np.int8))
+        contacts = Contacts(i=pair[:, 0].copy(), j=pair[:, 1].copy(), **data)
     return Frame(
         step=int(f[_STEP][k]),
         time=float(f[_TIME][k]),
@@ -420,8 +433,14 @@ def _open_for_append(path: Path, resume_step: int | None) -> h5py.File:
 
     A file whose writer was killed is still marked open-for-writing by HDF5, which refuses
     to open it for writing again; such a file is first rewritten (kept frames only) into a
-    clean file that atomically replaces it.
+    clean file that atomically replaces it. So is a file written before contact kinds were
+    stored (its contacts become pairs), since SWMR cannot add the missing dataset in place
+    and adding it outside SWMR would not survive a kill.
     """
+    with _open_for_read(path) as f:
+        outdated = _CONTACT_NUMBER in f and _CONTACT_KIND.element not in f
+    if outdated:
+        _rewrite(path, resume_step)
     try:
         f = h5py.File(path, "r+", libver=_LIBVER)
     except OSError as err:

@@ -18,8 +18,10 @@ tangential force ``F_t``: ``c = d x F_t / |d|``, LAMMPS's convention with the fu
 lever arm). Walls call the same evaluator with ``rad_j = 0`` and ``d`` the vector from the
 wall's closest point, so one law serves pairs and walls alike.
 
-The loop sets each particle's force to the sum over its own row (the pair force is the first
-force operation of a step, so this replaces zeroing) and stores each pair's result per pair;
+Several pair interactions may share one neighbour list, each with its own law and the type
+pairs it owns (``use[type_i, type_j]``); pairs of other types are skipped. The first
+interaction of a step *sets* each particle's force to the sum over its own row (this
+replaces zeroing), later ones add to it; each stores its pairs' results per pair;
 the ``j`` sides are then added per particle in a fixed order (the column order of the list's
 transpose: ascending ``i``), so forces are bitwise identical for any number of threads.
 
@@ -33,15 +35,17 @@ results. Both ways add the same terms in the same order, starting from zero, so 
 
 from __future__ import annotations
 
-import inspect
-import types
-import zlib
-from pathlib import Path
-
 import numpy as np
 from numba import njit, prange
 
 from grainflow.kernels.neighbors import minimum_image
+from grainflow.kernels.specialize import specialize
+
+#: ``active[k]`` codes: the law was not evaluated for pair slot ``k`` at the last call and its
+#: history is zero; it was evaluated (``fc_pair[k]`` is valid); it was not, but its history
+#: may still be non-zero (a read-only call found it out of reach and left the history
+#: alone; the next updating call clears it).
+INACTIVE, ACTIVE, STALE = 0, 1, 2
 
 
 @njit(cache=True)
@@ -62,62 +66,47 @@ def spans_chunks(first, last, starts):
     return False
 
 
-def evaluate_pairs(evaluate, params, reach, x, v, omega, radius, mass, ptype, frozen, row_ptr,
-                   nbr, pair_col, col_span, n_chunks, hist, fc_pair, active, active_col,
-                   col_sum, box_len, periodic, dt, update, force, torque):
+def evaluate_pairs(evaluate, params, reach, use, all_types, first, x, v, omega, radius, mass,
+                   ptype, frozen, row_ptr, nbr, pair_col, col_span, n_chunks, hist, fc_pair,
+                   active, active_col, col_sum, box_len, periodic, dt, update, force, torque):
     """Evaluate the law ``evaluate`` for every listed pair (see :func:`_evaluate_pairs`)."""
-    pair_kernel(evaluate)(params, reach, x, v, omega, radius, mass, ptype, frozen, row_ptr, nbr,
-                          pair_col, col_span, n_chunks, hist, fc_pair, active, active_col,
-                          col_sum, box_len, periodic, dt, update, force, torque)
-
-
-_KERNELS: dict = {}
+    pair_kernel(evaluate)(params, reach, use, all_types, first, x, v, omega, radius, mass,
+                          ptype, frozen, row_ptr, nbr, pair_col, col_span, n_chunks, hist,
+                          fc_pair, active, active_col, col_sum, box_len, periodic, dt, update,
+                          force, torque)
 
 
 def pair_kernel(evaluate):
-    """:func:`_evaluate_pairs` compiled for one law's evaluator, bound as a global.
-
-    An evaluator passed as an argument is called, never inlined; bound as a global, one
-    declared ``inline='always'`` is inlined into the loop (about 15 % of the loop's time
-    on the chute). One kernel per evaluator, cached on disk like the other kernels when the
-    law's source file can be read: the cache name carries a checksum of that file and of the
-    evaluator's name, so editing a law recompiles its loop.
-    """
-    kernel = _KERNELS.get(evaluate)
-    if kernel is None:
-        py_func = evaluate.py_func
-        try:
-            source = Path(inspect.getfile(py_func)).read_bytes()
-        except (OSError, TypeError):  # e.g. defined interactively: compile, do not cache
-            source = None
-        label = f"{py_func.__module__}.{py_func.__qualname__}".encode()
-        name = f"evaluate_pairs_{py_func.__name__}_{zlib.crc32(label + (source or b'')):08x}"
-        fn = types.FunctionType(_evaluate_pairs.__code__,
-                                {**_evaluate_pairs.__globals__, "evaluate": evaluate}, name)
-        fn.__qualname__ = name
-        kernel = _KERNELS[evaluate] = njit(cache=source is not None, parallel=True)(fn)
-    return kernel
+    """:func:`_evaluate_pairs` compiled for one law's evaluator, bound as a global so that
+    an evaluator declared ``inline='always'`` is inlined into the loop (about 15 % of the
+    loop's time on the chute; :mod:`grainflow.kernels.specialize`)."""
+    name = "evaluate_pairs_" + evaluate.py_func.__name__
+    return specialize(_evaluate_pairs, name, {"evaluate": evaluate}, parallel=True)
 
 
-def _evaluate_pairs(params, reach, x, v, omega, radius, mass, ptype, frozen, row_ptr, nbr,
-                    pair_col, col_span, n_chunks, hist, fc_pair, active, active_col, col_sum,
-                    box_len, periodic, dt, update, force, torque):
-    """Evaluate the law for every listed pair; set each particle's force to its row sum.
+def _evaluate_pairs(params, reach, use, all_types, first, x, v, omega, radius, mass, ptype,
+                    frozen, row_ptr, nbr, pair_col, col_span, n_chunks, hist, fc_pair, active,
+                    active_col, col_sum, box_len, periodic, dt, update, force, torque):
+    """Evaluate the law for every listed pair of its types; set or add each row's sum.
 
     Template compiled by :func:`pair_kernel`, which binds the global ``evaluate``.
 
-    For every pair within ``r_i + r_j + reach`` the law is evaluated, ``fc_pair[k] = (f, c)``
-    (npairs, 6) is written, ``active[k] = 1``, and the force and torque of particle ``i``
-    (the row owner) are *set* to ``F_i = 0 + sum_k f_k`` and ``T_i = 0 - r_i sum_k c_k``
-    (exactly what zeroing and then adding gives). Rows are processed in ``n_chunks``
+    Pairs whose type pair is not ``use``d (unless ``all_types``) are skipped. For every
+    other pair within ``r_i + r_j + reach`` the law is evaluated, ``fc_pair[k] = (f, c)``
+    (npairs, 6) is written, ``active[k] = ACTIVE``, and the force and torque of particle
+    ``i`` (the row owner) are *set* (``first``) to ``F_i = 0 + sum_k f_k`` and
+    ``T_i = 0 - r_i sum_k c_k`` (exactly what zeroing and then adding gives), or else
+    incremented by the same sums. Rows are processed in ``n_chunks``
     contiguous chunks, one thread each; when the column of ``j`` (rows
     ``col_span[j, 0]`` to ``col_span[j, 1]``) lies inside the chunk, ``(f, c)`` is also added
     to ``col_sum[j]`` (no other thread touches it). :func:`gather_pair_forces` applies the
     ``j`` sides afterwards.
 
     Farther pairs are not passed to the law: by contract a law exerts no force there and
-    keeps no memory, so their history is zeroed (if they were evaluated before) and
-    ``active[k] = 0``; their ``fc_pair`` row is left stale and must not be read. Most listed
+    keeps no memory, so an updating call (``update``) zeroes the history of those that were
+    evaluated before and sets ``active[k] = INACTIVE``; a read-only call writes no history
+    and marks them ``STALE`` instead. Their ``fc_pair`` row is left stale and must not be
+    read. Most listed
     pairs are of this kind, and touching one byte for them instead of 80 saves most of the
     memory traffic of the loop. ``active_col[pair_col[k]]`` mirrors ``active[k]`` in column
     order (written only when a pair changes state) for the gather.
@@ -141,20 +130,26 @@ def _evaluate_pairs(params, reach, x, v, omega, radius, mass, ptype, frozen, row
             c2 = 0.0
             for k in range(row_ptr[i], row_ptr[i + 1]):
                 j = nbr[k]
+                tj = ptype[j]
+                if not all_types and not use[ti, tj]:
+                    continue
                 dx = minimum_image(xi0 - x[j, 0], box_len[0], periodic[0])
                 dy = minimum_image(xi1 - x[j, 1], box_len[1], periodic[1])
                 dz = minimum_image(xi2 - x[j, 2], box_len[2], periodic[2])
                 rsq = dx * dx + dy * dy + dz * dz
                 cut = ri + radius[j] + reach
                 if rsq >= cut * cut:
-                    if active[k]:
-                        for h in range(hist.shape[1]):
-                            hist[k, h] = 0.0
-                        active[k] = 0
+                    if active[k] != INACTIVE:
+                        if update:
+                            for h in range(hist.shape[1]):
+                                hist[k, h] = 0.0
+                            active[k] = INACTIVE
+                        else:
+                            active[k] = STALE
                         active_col[pair_col[k]] = 0
                     continue
-                if not active[k]:
-                    active[k] = 1
+                if active[k] != ACTIVE:
+                    active[k] = ACTIVE
                     active_col[pair_col[k]] = 1
                 mj = mass[j]
                 if frozen[i]:
@@ -164,7 +159,7 @@ def _evaluate_pairs(params, reach, x, v, omega, radius, mass, ptype, frozen, row
                 else:
                     meff = mi * mj / (mi + mj)
                 fx, fy, fz, cx, cy, cz = evaluate(  # noqa: F821 (bound by pair_kernel)
-                    params, ti, ptype[j], dx, dy, dz, rsq, ri, radius[j],
+                    params, ti, tj, dx, dy, dz, rsq, ri, radius[j],
                     v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
                     omega[i, 0], omega[i, 1], omega[i, 2], omega[j, 0], omega[j, 1],
                     omega[j, 2], meff, hist, k, dt, update)
@@ -187,12 +182,20 @@ def _evaluate_pairs(params, reach, x, v, omega, radius, mass, ptype, frozen, row
                 c0 += cx
                 c1 += cy
                 c2 += cz
-            force[i, 0] = 0.0 + f0
-            force[i, 1] = 0.0 + f1
-            force[i, 2] = 0.0 + f2
-            torque[i, 0] = 0.0 - ri * c0
-            torque[i, 1] = 0.0 - ri * c1
-            torque[i, 2] = 0.0 - ri * c2
+            if first:
+                force[i, 0] = 0.0 + f0
+                force[i, 1] = 0.0 + f1
+                force[i, 2] = 0.0 + f2
+                torque[i, 0] = 0.0 - ri * c0
+                torque[i, 1] = 0.0 - ri * c1
+                torque[i, 2] = 0.0 - ri * c2
+            else:
+                force[i, 0] += f0
+                force[i, 1] += f1
+                force[i, 2] += f2
+                torque[i, 0] -= ri * c0
+                torque[i, 1] -= ri * c1
+                torque[i, 2] -= ri * c2
 
 
 @njit(cache=True, parallel=True)
@@ -252,11 +255,12 @@ def gather_pair_forces(col_ptr, col_pair, col_span, n_chunks, fc_pair, active_co
 
 @njit(cache=True)
 def active_pairs(row_ptr, nbr, f_pair, active):
-    """Active pair slots with a non-zero force (first three columns of ``f_pair``): (i, j, slot)."""
+    """Pair slots evaluated at the last call (``ACTIVE``) with a non-zero force (first three
+    columns of ``f_pair``): (i, j, slot)."""
     n = row_ptr.shape[0] - 1
     m = 0
     for k in range(nbr.shape[0]):
-        if active[k] and (f_pair[k, 0] != 0.0 or f_pair[k, 1] != 0.0 or f_pair[k, 2] != 0.0):
+        if active[k] == ACTIVE and (f_pair[k, 0] != 0.0 or f_pair[k, 1] != 0.0 or f_pair[k, 2] != 0.0):
             m += 1
     pi = np.empty(m, dtype=np.int64)
     pj = np.empty(m, dtype=np.int64)
@@ -264,7 +268,7 @@ def active_pairs(row_ptr, nbr, f_pair, active):
     m = 0
     for i in range(n):
         for k in range(row_ptr[i], row_ptr[i + 1]):
-            if active[k] and (f_pair[k, 0] != 0.0 or f_pair[k, 1] != 0.0 or f_pair[k, 2] != 0.0):
+            if active[k] == ACTIVE and (f_pair[k, 0] != 0.0 or f_pair[k, 1] != 0.0 or f_pair[k, 2] != 0.0):
                 pi[m] = i
                 pj[m] = nbr[k]
                 slot[m] = k

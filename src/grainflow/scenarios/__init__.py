@@ -17,7 +17,8 @@ section (a pydantic model validated from the TOML table named ``section``). Regi
                       uses=frozenset({"contact", "drag", "gravity"})))
 
 Builders are named by import path (``"module:function"``) so that this registry, which the
-config schema reads, does not import the engine.
+config schema reads, does not import the engine. Nor does it import :mod:`grainflow.config`,
+which sits above it (config reads this registry, scenario modules register into it).
 """
 
 from __future__ import annotations
@@ -29,7 +30,6 @@ from typing import TYPE_CHECKING, Any, Callable
 if TYPE_CHECKING:
     from pydantic import BaseModel
 
-    from grainflow.config.schema import RunConfig
     from grainflow.engine.simulation import Simulation
 
 #: Top-level config sections every scenario accepts.
@@ -43,7 +43,8 @@ PLUGINS = ("grainflow.scenarios.hopper", "grainflow.scenarios.stream", "grainflo
 class Scenario:
     """One entry of :data:`SCENARIOS`.
 
-    ``builder``: ``"module:function"`` of ``build(config: RunConfig) -> Simulation``.
+    ``builder``: ``"module:function"`` of ``build(config: RunConfig) -> Simulation``
+    (:class:`grainflow.config.schema.RunConfig`, not imported here: config sits above).
     ``section``/``model``: the name of the scenario's own TOML table and the pydantic model
     that validates it (a class, or ``"module:Class"``); ``config.section`` holds the result. ``uses``: the optional generic
     sections (``box``, ``particles``, ``contact``, ``walls``, ``gravity``, ``drag``,
@@ -58,7 +59,7 @@ class Scenario:
     uses: frozenset[str] = field(default_factory=frozenset)
     description: str = ""
 
-    def build(self, config: "RunConfig") -> "Simulation":
+    def build(self, config: Any) -> "Simulation":
         """Import the builder and build the simulation."""
         fn: Callable[[Any], Simulation] = _resolve(self.builder)
         return fn(config)

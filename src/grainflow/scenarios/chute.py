@@ -5,23 +5,44 @@ y, gravity of magnitude 1 tilted 26 degrees down-slope, ``pair_style gran/hooke/
 200000.0 NULL 50.0 NULL 0.5 0`` (kn = 2e5, kt = 2/7 kn, gamma_n = 50, gamma_t = 0 because
 dampflag = 0, mu = 0.5), dt = 1e-4, skin 0.1. Replicas along x and y give larger systems at
 the same density for the scaling benchmark.
+
+The benchmark's files ship with grainflow (``grainflow/data/chute``: ``data.chute.gz``,
+``in.chute`` and LAMMPS's reference log); :func:`chute_files` returns their paths and the
+functions here read the shipped data file unless given another.
 """
 
 from __future__ import annotations
 
+from importlib import resources
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from grainflow.engine.forces import Gravity
 from grainflow.engine.simulation import Simulation
 from grainflow.frame import Box
-from grainflow.io.lammps_data import LammpsData, read_lammps_data
-from grainflow.models.granular import GranularLaw
+from grainflow.insertion.lammps_data import LammpsData, read_lammps_data
+from grainflow.models.base import ContactLaw
 from grainflow.state import ParticleState
 
 #: The deck's parameters.
 CHUTE = {"kn": 2.0e5, "gamma_n": 50.0, "mu": 0.5, "dt": 1.0e-4, "skin": 0.1, "angle": 26.0}
+
+
+class ChuteFiles(NamedTuple):
+    """Paths of the shipped LAMMPS chute benchmark files."""
+
+    data: Path  #: ``data.chute.gz``: the initial state (gzip; the reader opens it directly)
+    deck: Path  #: ``in.chute``: LAMMPS's input deck
+    log: Path  #: LAMMPS's reference log of the deck's 100 steps
+
+
+def chute_files() -> ChuteFiles:
+    """The LAMMPS chute benchmark files shipped in ``grainflow/data/chute``."""
+    folder = Path(str(resources.files("grainflow").joinpath("data", "chute")))
+    return ChuteFiles(data=folder / "data.chute.gz", deck=folder / "in.chute",
+                      log=folder / "log.6Oct16.chute.fixed.icc.1.upstream_reference")
 
 
 def chute_state(data: LammpsData, replicate: tuple[int, int] = (1, 1)) -> ParticleState:
@@ -45,32 +66,40 @@ def chute_state(data: LammpsData, replicate: tuple[int, int] = (1, 1)) -> Partic
     return st
 
 
-def chute_simulation(data_path: str | Path, replicate: tuple[int, int] = (1, 1),
+def chute_simulation(data_path: str | Path | None = None, replicate: tuple[int, int] = (1, 1),
                      sort_every: int = 1) -> Simulation:
-    """A ready-to-run chute simulation reading LAMMPS's ``data.chute``."""
-    data = read_lammps_data(data_path)
+    """A ready-to-run chute simulation reading LAMMPS's ``data.chute`` (default: the shipped
+    copy, :func:`chute_files`)."""
+    data = read_lammps_data(chute_files().data if data_path is None else data_path)
     return _chute_model(chute_state(data, replicate), sort_every)
+
+
+def chute_law() -> ContactLaw:
+    """The deck's ``gran/hooke/history``: Hooke spring, mass-weighted normal dashpot,
+    tangential history with Coulomb cap (no cohesion), for types 0 (grains) and 1 (base)."""
+    law = ContactLaw(n_types=2, normal="hooke", damping="viscous", tangential="history")
+    law.set_all(kn=CHUTE["kn"], gamma_n=CHUTE["gamma_n"], gamma_t=0.0, mu=CHUTE["mu"])
+    return law
 
 
 def _chute_model(st: ParticleState, sort_every: int = 1) -> Simulation:
     """The deck's contact law, time step, skin and tilted gravity around ``st``."""
-    law = GranularLaw(n_types=2)
-    law.set_all(kn=CHUTE["kn"], gamma_n=CHUTE["gamma_n"], gamma_t=0.0, mu=CHUTE["mu"])
-    sim = Simulation(st, CHUTE["dt"], law, skin=CHUTE["skin"], sort_every=sort_every)
+    sim = Simulation(st, CHUTE["dt"], chute_law(), skin=CHUTE["skin"], sort_every=sort_every)
     sim.add_force(Gravity.chute(1.0, CHUTE["angle"]))
     return sim
 
 
-def chute_quarter(data_path: str | Path) -> Simulation:
+def chute_quarter(data_path: str | Path | None = None) -> Simulation:
     """About 8,000 grains: the chute cut to its x < Lx/2, y < Ly/2 quarter (still periodic).
 
     Grains that would overlap by more than 1 % of a diameter across the new periodic seams
     are dropped (the later of each such pair), so the cut system starts without violent
-    contacts. Used for the size-scaling part of the benchmark.
+    contacts. Used for the size-scaling part of the benchmark. ``data_path`` defaults to the
+    shipped ``data.chute.gz``.
     """
     from scipy.spatial import cKDTree
 
-    data = read_lammps_data(data_path)
+    data = read_lammps_data(chute_files().data if data_path is None else data_path)
     half = 0.5 * (data.hi[:2] - data.lo[:2])
     keep = np.all(data.x[:, :2] - data.lo[:2] < half, axis=1)
     idx = np.flatnonzero(keep)

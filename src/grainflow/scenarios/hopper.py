@@ -41,34 +41,29 @@ with zero velocity; FIRE (``run.minimize = true``, gravity off) removes any over
 Time step (the seed's value is illegible, PARAMETERS.md "NF"): ``dt = dt_fraction * t_c``
 with t_c the shortest contact time of the pair law *and* of the walls (a wall contact of a
 small grain, t_c = pi sqrt(m_s r_s^2 / eps_w), is usually the stiffest); ``dt_fraction`` =
-1/20 by default, and at most 0.2 m_eff/mu (:func:`hopper_time_step`, kinetic friction).
-docs/hopper_study.md shows that halving it leaves Q unchanged.
+1/20 by default, and at most 0.2 m_eff/mu, the relaxation time of the kinetic friction of
+two small grains over 5 (:meth:`~grainflow.engine.simulation.Simulation.stable_time_step`
+over every interaction). docs/hopper_study.md shows that halving it leaves Q unchanged.
 """
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from grainflow.scenarios import Scenario, register
-from grainflow.scenarios.hopper_reinsertion import (
-    HopperReinsertion,
-    read_events_csv,
-    write_events,
-)
+from grainflow.scenarios.hopper_reinsertion import HopperReinsertion
+from grainflow.engine.minimize import relax
 
 if TYPE_CHECKING:
-    from grainflow.analysis.hopper import FlowRate
-    from grainflow.config.schema import RunConfig
     from grainflow.engine.simulation import Simulation
 
 __all__ = ["DIAMETER_RATIO", "HopperSection", "LIMIT_MU", "LIMIT_ZETA", "SIGMA_SMALL",
-           "build_hopper", "build_hopper2d", "build_hopper3d", "demo", "dissipation",
-           "flow_summary", "hopper_segments", "hopper_updater", "prepare", "read_events"]
+           "build_hopper", "build_hopper2d", "build_hopper3d", "dissipation",
+           "hopper_segments", "hopper_updater", "prepare"]
 
 #: Large/small diameter ratio (seed Sec. 2.2).
 DIAMETER_RATIO = 1.4
@@ -81,11 +76,9 @@ LIMIT_ZETA = 1.0 / math.sqrt(10.0)
 #: :class:`HopperSection` ``drag_factor`` and docs/hopper_study.md). 16 = N_v, the number of
 #: vertices of the seed's DP particles, each of which feels -zeta v (seed eq. 11).
 DRAG_FACTOR = 16.0
-#: dt is at most this fraction of the kinetic-friction relaxation time m_eff/mu
-#: (:func:`hopper_time_step`).
-DAMPING_FRACTION = 0.2
 #: Particle types: 0 small, 1 large, 2 walls.
 WALL_TYPE = 2
+#: File of a run's crossing events (read by :mod:`grainflow.studies.hopper_results`).
 EVENTS = "events.csv"
 
 
@@ -213,25 +206,25 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     zeta, mu = dissipation(section)
     law = SoftLaw(n_types=3)
     for ti, tj in ((0, 0), (0, 1), (1, 1)):
-        law.set_pair(ti, tj, epsilon=section.E_sp, mu=mu)
+        law.set_pair(ti, tj, epsilon=section.E_sp, mu_k=mu)
     for ti in (0, 1):
-        law.set_pair(ti, WALL_TYPE, epsilon=section.E_w, mu=0.0)
-    law.set_pair(WALL_TYPE, WALL_TYPE, epsilon=section.E_w, mu=0.0)
+        law.set_pair(ti, WALL_TYPE, epsilon=section.E_w, mu_k=0.0)
+    law.set_pair(WALL_TYPE, WALL_TYPE, epsilon=section.E_w, mu_k=0.0)
     sim = Simulation(state, 1.0, law, skin=skin, sort_every=sort_every,
                      check_every=check_every, max_overlap_fraction=max_overlap_fraction,
                      seed=seed)
-    sim.dt = dt if dt is not None else hopper_time_step(sim, section, mu)
     sim.add_force(WallForce(walls, law, WALL_TYPE))
     g = np.zeros(dim)
     g[-1] = -1.0
     sim.add_force(Gravity(g))
     if zeta > 0:
         sim.add_force(Drag(section.drag_factor * zeta))
+    sim.dt = dt if dt is not None else sim.stable_time_step(section.dt_fraction)
     bulk_contacts = section.reinsert_bulk_contacts
     updater = HopperReinsertion(dim, 0.0, np.zeros(dim - 1), width,
                                 depth=section.reinsert_depth,
                                 bulk_contacts=dim + 1 if bulk_contacts is None else bulk_contacts)
-    updater.setup_state(sim)
+    updater.setup_state(sim.context)
     sim.add_updater(updater, section.reinsert_every)
     return sim
 
@@ -252,45 +245,22 @@ def hopper_segments(sim: "Simulation") -> list[tuple[tuple[float, float], tuple[
             if isinstance(f, WallForce) for w in f.walls if isinstance(w, Segment)]
 
 
-def hopper_contact_time(sim: "Simulation", section: HopperSection) -> float:
-    """Shortest contact time: grain pairs (``sim.contact_time()``) and a small grain on a
-    wall, pi sqrt(m_s r_s^2 / eps_w) (wall: partner of infinite mass, sigma = r_s)."""
-    st = sim.state
-    small = int(np.argmin(st.radius))
-    wall = math.pi * math.sqrt(float(st.mass[small]) * float(st.radius[small]) ** 2 / section.E_w)
-    return min(sim.contact_time(), wall)
-
-
-def hopper_time_step(sim: "Simulation", section: HopperSection, mu: float) -> float:
-    """``dt = min(dt_fraction * t_c, DAMPING_FRACTION * m_eff / mu)``.
-
-    t_c is :func:`hopper_contact_time`; the second bound keeps the explicit integration of the
-    kinetic friction accurate: it relaxes the relative velocity of two small grains at the
-    rate mu / m_eff (m_eff = m_s / 2), which at the seed's mu/mu0 = 10 sqrt(10) is faster than
-    the contact oscillation of soft grains.
-    """
-    dt = section.dt_fraction * hopper_contact_time(sim, section)
-    if mu > 0 and sim.state.n:
-        meff = 0.5 * float(sim.state.mass.min())
-        dt = min(dt, DAMPING_FRACTION * meff / mu)
-    return dt
-
-
 def prepare(sim: "Simulation") -> None:
-    """Seed 003's initialisation: FIRE with gravity off (see :func:`grainflow.config.build.relax`)."""
-    from grainflow.config.build import relax
-
+    """Seed 003's initialisation: FIRE with gravity off (the same
+    :func:`~grainflow.engine.minimize.relax` that ``run.minimize = true`` applies)."""
     relax(sim)
 
 
-def _section(config: "RunConfig") -> HopperSection:
+# The builders' ``config`` is the validated grainflow.config.schema.RunConfig (typed Any:
+# scenarios do not import the config layer above them).
+def _section(config: Any) -> HopperSection:
     section = config.section
     if not isinstance(section, HopperSection):
         raise ValueError("hopper: the [hopper] section is missing")
     return section
 
 
-def _build(config: "RunConfig", dim: int) -> "Simulation":
+def _build(config: Any, dim: int) -> "Simulation":
     if config.dim != dim:
         raise ValueError(f"dim: scenario hopper{dim}d needs dim = {dim}, got {config.dim}")
     run = config.run
@@ -299,156 +269,14 @@ def _build(config: "RunConfig", dim: int) -> "Simulation":
                         max_overlap_fraction=run.max_overlap_fraction)
 
 
-def build_hopper2d(config: "RunConfig") -> "Simulation":
+def build_hopper2d(config: Any) -> "Simulation":
     """Builder of the ``hopper2d`` scenario (set ``run.minimize = true`` for FIRE)."""
     return _build(config, 2)
 
 
-def build_hopper3d(config: "RunConfig") -> "Simulation":
+def build_hopper3d(config: Any) -> "Simulation":
     """Builder of the ``hopper3d`` scenario (set ``run.minimize = true`` for FIRE)."""
     return _build(config, 3)
-
-
-# --------------------------------------------------------------------------- analysis
-def read_events(rundir: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Crossing events ``(times, ids, sizes)`` of a run directory.
-
-    From ``events.csv`` when present (the demo and the study write it), else from the
-    reinsertion updater's state in ``checkpoint.npz`` (every run through the runner ends
-    with a checkpoint).
-    """
-    rundir = Path(rundir)
-    if (rundir / EVENTS).is_file():
-        return read_events_csv(rundir / EVENTS)
-    from grainflow.runner import CHECKPOINT, read_checkpoint
-
-    path = rundir / CHECKPOINT
-    if not path.is_file():
-        raise FileNotFoundError(f"{rundir}: neither {EVENTS} nor {CHECKPOINT}; not a hopper run")
-    updaters = read_checkpoint(path)["sim"].get("updaters", {})
-    for data in updaters.values():
-        if isinstance(data, dict) and "event_times" in data:
-            return (np.asarray(data["event_times"], float),
-                    np.asarray(data["event_ids"], np.int64),
-                    np.asarray(data["event_sizes"], float))
-    raise ValueError(f"{path}: holds no hopper crossing events (not a hopper run?)")
-
-
-def _run_info(rundir: Path) -> dict[str, Any]:
-    import tomllib
-
-    info: dict[str, Any] = {}
-    cfg = rundir / "config.toml"
-    if cfg.is_file():
-        data = tomllib.loads(cfg.read_text())
-        info["dim"] = data.get("dim")
-        info["orifice_width"] = data.get("hopper", {}).get("orifice_width")
-        info["t_end"] = None
-    summary = rundir / "summary.json"
-    if summary.is_file():
-        import json
-
-        info["t_end"] = json.loads(summary.read_text()).get("time")
-        info["wall_time_s"] = json.loads(summary.read_text()).get("wall_time_s")
-    return info
-
-
-def flow_summary(rundir: str | Path) -> dict[str, float]:
-    """Sweep analysis: steady flow rate of a hopper run from its saved crossing events.
-
-    Returns ``Q`` and ``Q_err`` (area/volume rate in Q0 = sigma_avg^d/t0, steady window by
-    MSER, error bars from 10 blocks, or 5-9 for records of under 200 events:
-    :func:`~grainflow.analysis.hopper.flow_rate_from_events`),
-    ``number_rate`` and its error (grains per t0), ``n_events``, the steady window
-    ``t_start``/``t_end``, ``w`` (from config.toml) and the run's ``wall_time_s``. With saved
-    frames (``frames.h5``) also ``Q_prime``/``Q_prime_err``, the overlap-corrected rate of
-    seed Appendix B, from the number density in the 2w x w region above the orifice over the
-    frames of the steady window. Pure function of files in ``rundir``.
-    """
-    from grainflow.analysis.hopper import flow_rate_from_events
-
-    rundir = Path(rundir)
-    times, _, sizes = read_events(rundir)
-    info = _run_info(rundir)
-    # 10 blocks for the error bar, fewer (down to 5) for a short record: >= 20 events a block
-    n_blocks = int(np.clip(times.size // 20, 5, 10))
-    flow = flow_rate_from_events(times, sizes, t_begin=0.0, t_end=info.get("t_end"),
-                                 n_blocks=n_blocks)
-    out = {"Q": flow.flow_rate, "Q_err": flow.flow_rate_err,
-           "number_rate": flow.number_rate, "number_rate_err": flow.number_rate_err,
-           "n_events": float(flow.n_events), "t_start": flow.t_start, "t_end": flow.t_end}
-    if info.get("orifice_width") is not None:
-        out["w"] = float(info["orifice_width"])
-    if info.get("wall_time_s") is not None:
-        out["wall_time_s"] = float(info["wall_time_s"])
-    if (rundir / "frames.h5").is_file() and info.get("orifice_width") and info.get("dim"):
-        out.update(_overlap_corrected(rundir, flow, int(info["dim"]), float(info["orifice_width"])))
-    return out
-
-
-def _overlap_corrected(rundir: Path, flow: "FlowRate", dim: int, w: float) -> dict[str, float]:
-    """Q' of seed Appendix B from the frames of the steady window (empty if < 2 frames)."""
-    from grainflow.analysis.hopper import orifice_number_density, overlap_corrected_flow_rate
-    from grainflow.io.h5md import read_frames
-    from grainflow.scenarios.hopper_reinsertion import grain_size
-
-    positions = [fr.position for fr in read_frames(rundir / "frames.h5")
-                 if flow.t_start <= fr.time <= flow.t_end]
-    if len(positions) < 2:
-        return {}
-    rho, rho_err = orifice_number_density(positions, np.zeros(dim), w)
-    a_avg = float(np.mean(grain_size(0.5 * SIGMA_SMALL * np.array([1.0, DIAMETER_RATIO]), dim)))
-    corrected = overlap_corrected_flow_rate(flow.flow_rate, rho, a_avg,
-                                            flow_rate_err=flow.flow_rate_err,
-                                            number_density_err=rho_err)
-    return {"Q_prime": corrected.flow_rate, "Q_prime_err": corrected.flow_rate_err,
-            "number_density": rho}
-
-
-# ------------------------------------------------------------------------------- demo
-def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: float = 10.0,
-         duration: float = 600.0, E_sp: float = 1000.0, E_w: float = 1000.0, seed: int = 0,
-         quiet: bool = False) -> "FlowRate":
-    """A 2D hopper discharge in the lambda -> inf limit; about a minute on 2 cores.
-
-    ``n`` grains, a wide orifice (w = 10 sigma_avg), ``duration`` t0 of flow (the drag-limited
-    pile turns over slowly: the rate settles only after about 300 t0, a transient that the
-    analysis detects and discards), E_sp = E_w = 1000 (moderately stiff grains; walls no
-    stiffer than the grains, so that the wall contact time does not shorten dt, see
-    :func:`hopper_contact_time`). Prints Q with its error bar in Q0 = sigma_avg^2/t0,
-    writes ``snapshot.png``, ``flow_rate.png`` and ``events.csv`` into ``out_dir`` (default
-    ``./grainflow-demo``) and returns the :class:`~grainflow.analysis.hopper.FlowRate`.
-    """
-    import time
-
-    from grainflow.analysis.hopper import flow_rate_from_events
-    from grainflow.plotting.hopper_plots import plot_flow_rate_timeseries
-    from grainflow.plotting.snapshot import snapshot
-
-    out = Path(out_dir if out_dir is not None else "grainflow-demo")
-    out.mkdir(parents=True, exist_ok=True)
-    section = HopperSection(n=n, orifice_width=orifice_width, E_sp=E_sp, E_w=E_w,
-                            lam=math.inf)
-    start = time.perf_counter()
-    sim = build_hopper(section, 2, seed=seed)
-    prepare(sim)
-    steps = int(math.ceil(duration / sim.dt))
-    if not quiet:
-        print(f"grainflow demo: 2D hopper, N = {sim.state.n}, w = {orifice_width:g} sigma_avg, "
-              f"lambda -> inf, E_sp = {E_sp:g}, dt = {sim.dt:.4g} t0, {steps} steps")
-    sim.run(steps)
-    updater = hopper_updater(sim)
-    write_events(out / EVENTS, updater.event_times, updater.event_ids, updater.event_sizes)
-    flow = flow_rate_from_events(updater.event_times, updater.event_sizes, t_begin=0.0,
-                                 t_end=sim.time)
-    plot_flow_rate_timeseries(flow, out / "flow_rate.png")
-    snapshot(sim.frame(), out / "snapshot.png", walls=hopper_segments(sim))
-    if not quiet:
-        print(f"Q = {flow.flow_rate:.4g} +/- {flow.flow_rate_err:.2g} Q0 "
-              f"(dN/dt = {flow.number_rate:.4g} +/- {flow.number_rate_err:.2g} per t0, "
-              f"{flow.n_events} events after t = {flow.t_start:.3g} t0); "
-              f"{time.perf_counter() - start:.1f} s; outputs in {out}")
-    return flow
 
 
 register(Scenario(

@@ -28,18 +28,18 @@ Our reading, implemented by :class:`HopperReinsertion` (every ``every`` steps):
 
 Events are kept in the updater (checkpointed through ``state_dict``) and written by
 :func:`write_events` or read from a run's checkpoint by
-:func:`grainflow.scenarios.hopper.read_events`.
+:func:`grainflow.studies.hopper_results.read_events`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from grainflow.engine.simulation import Simulation
+from grainflow.engine.operations import ForceContext, Updater, UpdateContext
+
 
 #: Name of the per-particle flag "crossed the orifice, not yet reinserted".
 OUT_FLAG = "hopper_out"
@@ -56,7 +56,7 @@ def grain_size(radius: np.ndarray, dim: int) -> np.ndarray:
     return np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
 
 
-class HopperReinsertion:
+class HopperReinsertion(Updater):
     """Record orifice crossings and reinsert grains on top of the pile (see module docstring).
 
     Parameters
@@ -114,38 +114,37 @@ class HopperReinsertion:
         return len(self._times)
 
     # ------------------------------------------------------------------ update
-    def setup_state(self, sim: "Simulation") -> None:
+    def setup_state(self, ctx: ForceContext) -> None:
         """Register the per-particle flag (call before a checkpoint is loaded)."""
-        sim.state.add_array(OUT_FLAG, (), np.int8, 0)
+        ctx.state.add_array(OUT_FLAG, (), np.int8, 0)
 
-    def update(self, sim: "Simulation") -> None:
-        st = sim.state
+    def update(self, ctx: UpdateContext) -> None:
+        st = ctx.state
         if OUT_FLAG not in st.arrays:
-            self.setup_state(sim)
+            self.setup_state(ctx)
         out = st.arrays[OUT_FLAG]
         h = st.x[:, self.axis]
         crossed = np.flatnonzero((out == 0) & (h < self.orifice_height))
         if crossed.size:
             out[crossed] = 1
-            self._times.extend([sim.time] * crossed.size)
+            self._times.extend([ctx.time] * crossed.size)
             self._ids.extend(st.id[crossed].tolist())
             self._sizes.extend(grain_size(st.radius[crossed], self.dim).tolist())
         due = np.flatnonzero((out == 1) & (h < self.orifice_height - self.depth * 2.0 * st.radius))
         if due.size:
-            contacts = self._contact_numbers(sim)
+            contacts = self._contact_numbers(ctx)
         for i in due:
-            self._reinsert(sim, int(i), contacts)
+            self._reinsert(ctx, int(i), contacts)
             out[i] = 0
         if due.size:
             self.reinserted += int(due.size)
-            sim.forces_current = False
 
-    def _contact_numbers(self, sim: "Simulation") -> np.ndarray:
+    def _contact_numbers(self, ctx: UpdateContext) -> np.ndarray:
         """Per grain, the number of grains it touches or nearly touches (surface gap below
         ``NEAR_GAP`` of the smaller diameter); zeros unless ``bulk_contacts`` asks for them."""
         from scipy.spatial import cKDTree
 
-        st = sim.state
+        st = ctx.state
         if self.bulk_contacts == 0 or st.n < 2:
             return np.zeros(st.n, dtype=np.int64)
         pairs = cKDTree(st.x).query_pairs(2.0 * float(st.radius.max()) * (1.0 + NEAR_GAP),
@@ -155,10 +154,10 @@ class HopperReinsertion:
         near = gap < NEAR_GAP * 2.0 * np.minimum(st.radius[i], st.radius[j])
         return np.bincount(np.concatenate([i[near], j[near]]), minlength=st.n)
 
-    def _reinsert(self, sim: "Simulation", i: int, contacts: np.ndarray) -> None:
+    def _reinsert(self, ctx: UpdateContext, i: int, contacts: np.ndarray) -> None:
         """Place grain ``i`` on the pile: on a bulk partner if ``bulk_contacts`` asks and one
         is free above, else on the highest grain of a column (module docstring, step 2)."""
-        st = sim.state
+        st = ctx.state
         r = float(st.radius[i])
         span = self.half_width - r
         if span <= 0:
@@ -170,19 +169,19 @@ class HopperReinsertion:
             raise RuntimeError("hopper reinsertion: no grain left above the orifice to place "
                                f"grain id {int(st.id[i])} on")
         bulk = pile & (contacts >= self.bulk_contacts)
-        if self.bulk_contacts and self._place(sim, i, span, bulk, check_overlaps=True):
+        if self.bulk_contacts and self._place(ctx, i, span, bulk, check_overlaps=True):
             return
-        if not self._place(sim, i, span, pile, check_overlaps=False):
+        if not self._place(ctx, i, span, pile, check_overlaps=False):
             raise RuntimeError(f"hopper reinsertion: no column with grains found for grain id "
                                f"{int(st.id[i])} in {self.max_attempts} lateral positions")
 
-    def _place(self, sim: "Simulation", i: int, span: float, pool: np.ndarray, *,
+    def _place(self, ctx: UpdateContext, i: int, span: float, pool: np.ndarray, *,
                check_overlaps: bool) -> bool:
         """Try ``max_attempts`` lateral positions: touch the grain of ``pool`` with the highest
         contact height in that column and take its velocity. With ``check_overlaps`` a
         position that overlaps any other grain is refused; for a pool of all grains the
         column's highest grain is above every other, so there is nothing to check."""
-        st = sim.state
+        st = ctx.state
         ax = self.axis
         lat = [a for a in range(self.dim) if a != ax]
         r = float(st.radius[i])
@@ -190,7 +189,7 @@ class HopperReinsertion:
         lateral = st.x[np.ix_(idx, lat)]
         reach = r + st.radius[idx]
         for _ in range(self.max_attempts if idx.size else 0):
-            p = self._lateral_sample(sim.rng, span)
+            p = self._lateral_sample(ctx.rng, span)
             l2 = np.sum((lateral - p) ** 2, axis=1)
             column = np.flatnonzero(l2 < reach**2)
             if column.size == 0:
@@ -203,9 +202,7 @@ class HopperReinsertion:
             target[ax] = heights[k]
             if check_overlaps and self._overlaps(st, target, r, i, j):
                 continue  # a grain still raining onto the bulk partner is in the way
-            st.x[i, :] = target
-            st.v[i, :] = st.v[j, :]
-            st.omega[i, :] = 0.0
+            ctx.relocate(i, target, v=st.v[j], omega=np.zeros((1, 3)))
             return True
         return False
 

@@ -80,7 +80,7 @@ def sweep_specs(plan: StudyPlan) -> dict[str, Any]:
     """The study's sweeps (name -> validated :class:`~grainflow.sweep.SweepSpec`)."""
     from grainflow.sweep import parse_sweep
 
-    analyses = ["grainflow.scenarios.hopper:flow_summary"]
+    analyses = ["grainflow.studies.hopper_results:flow_summary"]
     raw = {
         "q2d": {"base": _base(2, plan, 100.0), "overrides": {
             "hopper.orifice_width": list(plan.widths_2d), "hopper.lam": list(plan.lambdas_2d)}},

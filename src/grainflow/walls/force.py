@@ -10,7 +10,15 @@ called with
 so M1/M2 (with the wall as the second body, as LAMMPS's ``fix wall/gran``) and M3's wall
 potential ``(eps_w/2)(1 - 2 d_w/sigma_m)^2`` (seed 003 eq. 4 with ``sigma = r_m``) come out
 of the same code as particle pairs. Forces act when ``|d| < r_i + reach`` (``reach``: the
-law's range beyond contact, e.g. the cohesion shell); torque ``T_i -= r_i c``.
+law's range beyond contact, e.g. the cohesion shell); torque ``T_i -= r_i c``. A centre
+lying exactly on the wall (``d = 0``) is pushed along the wall's normal at ``c`` towards its
+acting side: ``d = 1e-12 r_i n`` (:data:`ON_WALL`), so it feels the force of an overlap
+``r_i``.
+
+Several walls combine by addition: the forces of all walls on a particle add up, and each
+(particle, wall) pair keeps its own contact history, so a grain in the corner of two walls
+has two independent contacts. Walls of one ``wall_type`` share that type's contact
+parameters.
 
 The contact history of each (particle, wall) pair lives in a per-particle state array
 ``wall_history_<k>`` of shape ``(n_walls, history_size)`` (``k`` counts the wall forces of
@@ -29,32 +37,43 @@ periodic axes).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Iterable
+from typing import Any, Iterable
 
 import numpy as np
 from numba import njit, prange
 
-from grainflow.engine.forces import Force
+from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
+from grainflow.frame import WALL
+from grainflow.kernels.specialize import specialize
 from grainflow.models.base import ContactLaw
 from grainflow.walls.geometry import Wall, closest_point
 
-if TYPE_CHECKING:
-    from grainflow.engine.simulation import Simulation
+#: Length of the branch vector, in units of the particle radius, given to a particle whose
+#: centre lies exactly on a wall (along the wall's normal).
+ON_WALL = 1e-12
 
 
-@njit(cache=True, parallel=True)
-def wall_loop(evaluate, table, wall_type, kinds, params, shift, wall_v, x, v, omega, radius,
-              mass, ptype, frozen, hist, reach, dt, update, force, torque, record, out):
+def wall_kernel(evaluate: Any) -> Any:
+    """:func:`_wall_loop` compiled for one law's evaluator (inlined; see
+    :mod:`grainflow.kernels.specialize`)."""
+    return specialize(_wall_loop, "wall_loop_" + evaluate.py_func.__name__,
+                      {"evaluate": evaluate}, parallel=True)
+
+
+def _wall_loop(table, wall_type, acts_on, kinds, params, shift, wall_v, x, v, omega, radius,
+               mass, ptype, frozen, hist, reach, dt, update, force, torque, record, out):
     """Add the wall forces and torques of every (particle, wall) pair.
 
-    ``hist`` is ``(N * n_walls, H)`` with slot ``i * n_walls + w``; ``shift`` (n_walls, 3)
-    is each wall's displacement now. With ``record`` the force on ``i`` and the branch
-    vector ``d`` of every slot go to ``out[slot, 0:3]`` and ``out[slot, 3:6]``.
+    Template bound to the law's ``evaluate`` by :func:`wall_kernel`. ``hist`` is
+    ``(N * n_walls, H)`` with slot ``i * n_walls + w``; ``shift`` (n_walls, 3) is each
+    wall's displacement now; ``acts_on[type]`` says which particle types the walls touch.
+    History is written only when ``update``. With ``record`` the force on ``i`` and the
+    branch vector ``d`` of every slot go to ``out[slot, 0:3]`` and ``out[slot, 3:6]``.
     """
     nw = kinds.shape[0]
     nh = hist.shape[1]
     for i in prange(x.shape[0]):
-        if frozen[i]:
+        if frozen[i] or not acts_on[ptype[i]]:
             continue
         ri = radius[i]
         cut = ri + reach
@@ -71,18 +90,23 @@ def wall_loop(evaluate, table, wall_type, kinds, params, shift, wall_v, x, v, om
             p0 = x[i, 0] - shift[w, 0]
             p1 = x[i, 1] - shift[w, 1]
             p2 = x[i, 2] - shift[w, 2]
-            c0, c1, c2, ok = closest_point(kinds[w], params, w, p0, p1, p2)
+            c0, c1, c2, ok, n0, n1, n2 = closest_point(kinds[w], params, w, p0, p1, p2)
             dx = p0 - c0
             dy = p1 - c1
             dz = p2 - c2
             rsq = dx * dx + dy * dy + dz * dz
-            if not ok or rsq >= cutsq or rsq == 0.0:
+            if not ok or rsq >= cutsq:
                 if update:
                     for h in range(nh):
                         if hist[slot, h] != 0.0:
                             hist[slot, h] = 0.0
                 continue
-            fx, fy, fz, cx, cy, cz = evaluate(
+            if rsq == 0.0:  # centre on the surface: push along the normal
+                dx = ON_WALL * ri * n0
+                dy = ON_WALL * ri * n1
+                dz = ON_WALL * ri * n2
+                rsq = dx * dx + dy * dy + dz * dz
+            fx, fy, fz, cx, cy, cz = evaluate(  # noqa: F821 (bound by wall_kernel)
                 table, ptype[i], wall_type, dx, dy, dz, rsq, ri, 0.0,
                 v[i, 0] - wall_v[w, 0], v[i, 1] - wall_v[w, 1], v[i, 2] - wall_v[w, 2],
                 omega[i, 0], omega[i, 1], omega[i, 2], 0.0, 0.0, 0.0,
@@ -111,30 +135,34 @@ def wall_loop(evaluate, table, wall_type, kinds, params, shift, wall_v, x, v, om
 
 
 @njit(cache=True, parallel=True)
-def wall_max_overlap(kinds, params, shift, x, radius, frozen):
-    """Largest ``r_i - |x_i - c|`` over mobile particles and walls in contact (0 if none)."""
+def wall_overlaps(kinds, params, shift, x, radius, frozen, acts_on, ptype):
+    """Per particle, the largest ``r_i - |x_i - c|`` over the walls it is on the acting
+    side of (0 if none, or if frozen or of a type the walls do not touch)."""
     n = x.shape[0]
     nw = kinds.shape[0]
     best = np.zeros(n)
     for i in prange(n):
-        if frozen[i]:
+        if frozen[i] or not acts_on[ptype[i]]:
             continue
         b = 0.0
         for w in range(nw):
             p0 = x[i, 0] - shift[w, 0]
             p1 = x[i, 1] - shift[w, 1]
             p2 = x[i, 2] - shift[w, 2]
-            c0, c1, c2, ok = closest_point(kinds[w], params, w, p0, p1, p2)
+            c0, c1, c2, ok, n0, n1, n2 = closest_point(kinds[w], params, w, p0, p1, p2)
             if ok:
                 ov = radius[i] - np.sqrt((p0 - c0) ** 2 + (p1 - c1) ** 2 + (p2 - c2) ** 2)
                 if ov > b:
                     b = ov
         best[i] = b
-    return best.max() if n else 0.0
+    return best
 
 
 class WallForce(Force):
     """Contacts between particles and a set of analytic walls, through one contact law.
+
+    The forces of all walls add up; each (particle, wall) pair keeps its own contact
+    history; walls of one ``wall_type`` share that type's contact parameters.
 
     Parameters
     ----------
@@ -147,9 +175,12 @@ class WallForce(Force):
     wall_type:
         The walls' type index: particle-wall parameters are ``law.table[type_i, wall_type]``
         (set them with ``law.set_pair(particle_type, wall_type, ...)``).
+    particle_types:
+        The particle types the walls touch (default: all); other types pass through them.
     """
 
-    def __init__(self, walls: Iterable[Wall], law: ContactLaw, wall_type: int) -> None:
+    def __init__(self, walls: Iterable[Wall], law: ContactLaw, wall_type: int,
+                 particle_types: Iterable[int] | None = None) -> None:
         self.walls = tuple(walls)
         if not self.walls:
             raise ValueError("walls: the list is empty; give at least one wall shape")
@@ -161,33 +192,39 @@ class WallForce(Force):
             raise ValueError(f"wall_type: {wall_type!r} is not valid; expected an integer >= 0")
         self.law = law
         self.wall_type = int(wall_type)
+        self.particle_types = None if particle_types is None else sorted(
+            {int(t) for t in particle_types})
+        if self.particle_types is not None and (not self.particle_types
+                                                or self.particle_types[0] < 0):
+            raise ValueError(f"particle_types: {particle_types!r} is not valid; expected "
+                             "particle type indices >= 0 (or None for all)")
         self.kinds = np.array([w.kind for w in self.walls], dtype=np.int64)
         self.params = np.stack([w.pack() for w in self.walls])
         self.velocity = np.array([w.velocity for w in self.walls], dtype=np.float64)
         self.name = ""
-        self._checked = (-1, -1)
+        self._checked: tuple[int, int] = (-1, -1)
+        self._acts_on = np.ones(1, dtype=np.bool_)
         self._no_record = np.zeros((0, 6))
 
     @property
     def n_walls(self) -> int:
         return len(self.walls)
 
-    def setup(self, sim: "Simulation") -> None:
+    def setup(self, ctx: ForceContext) -> None:
         """Register the history array and check the walls fit the dimension and the law."""
-        if sim.state.dim == 2:
+        st = ctx.state
+        if st.dim == 2:
             bad = [k for k, w in enumerate(self.walls) if not w.planar()]
             if bad:
                 raise ValueError(f"walls: wall(s) {bad} do not lie in the z = 0 plane of a 2D "
                                  "simulation; use Segment/Plane with zero z components (or a "
                                  "Cylinder along z) and a velocity without z component")
-        self._check_types(sim)
-        mine = [f for f in sim.forces if isinstance(f, WallForce)]
-        k = next((n for n, f in enumerate(mine) if f is self), len(mine))
+        self._check_types(st)
+        k = sum(1 for name in st.arrays if name.startswith("wall_history_"))
         self.name = f"wall_history_{k}"
-        sim.state.add_array(self.name, (self.n_walls, self.law.history_size))
+        st.add_array(self.name, (self.n_walls, self.law.history_size), reset_on_move=True)
 
-    def _check_types(self, sim: "Simulation") -> None:
-        st = sim.state
+    def _check_types(self, st) -> None:
         key = (st.generation, self.law.n_types)
         if key == self._checked:
             return
@@ -198,51 +235,84 @@ class WallForce(Force):
                 f"but the walls (type {self.wall_type}) meet particle types up to "
                 f"{int(st.type.max()) if st.n else 0}; call law.set_pair(particle_type, "
                 f"{self.wall_type}, ...) for the particle-wall parameters")
+        acts_on = np.zeros(top + 1, dtype=np.bool_)
+        if self.particle_types is None:
+            acts_on[:] = True
+        else:
+            acts_on[[t for t in self.particle_types if t <= top]] = True
+        self._acts_on = acts_on
         self._checked = key
 
     def _shift(self, time: float) -> np.ndarray:
         return self.velocity * time
 
-    def _history(self, sim: "Simulation") -> np.ndarray:
+    def _history(self, st) -> np.ndarray:
         """The history as a ``(N * n_walls, H)`` view (slot ``i * n_walls + w``)."""
-        st = sim.state
         arr = st.arrays[self.name]
         if not arr.flags.c_contiguous:  # a reshape would copy and lose the updates
             arr = st.arrays[self.name] = np.ascontiguousarray(arr)
         return arr.reshape(st.n * self.n_walls, self.law.history_size)
 
-    def _run(self, sim: "Simulation", time: float, hist: np.ndarray, force: np.ndarray,
-             torque: np.ndarray, update: bool, out: np.ndarray | None) -> None:
-        st = sim.state
+    def _run(self, ctx: ForceContext, time: float, update: bool, force: np.ndarray,
+             torque: np.ndarray, out: np.ndarray | None) -> None:
+        st = ctx.state
+        self._check_types(st)
         law = self.law
-        wall_loop(law.evaluator, law.table, self.wall_type, self.kinds, self.params,
-                  self._shift(time), self.velocity, st.x, st.v, st.omega, st.radius, st.mass,
-                  st.type, st.frozen, hist, law.reach(), sim.dt, update, force, torque,
-                  out is not None, self._no_record if out is None else out)
+        wall_kernel(law.evaluator)(
+            law.table, self.wall_type, self._acts_on, self.kinds, self.params,
+            self._shift(time), self.velocity, st.x, st.v, st.omega, st.radius, st.mass,
+            st.type, st.frozen, self._history(st), law.reach(), ctx.dt, update, force, torque,
+            out is not None, self._no_record if out is None else out)
 
-    def compute(self, sim: "Simulation", update: bool) -> None:
-        self._check_types(sim)
-        st = sim.state
-        time = sim.time + sim.dt if update else sim.time
-        self._run(sim, time, self._history(sim), st.force, st.torque, update, None)
+    def compute(self, ctx: ForceContext, update: bool) -> None:
+        st = ctx.state
+        self._run(ctx, ctx.time + ctx.dt if update else ctx.time, update, st.force, st.torque,
+                  None)
 
-    def contacts(self, sim: "Simulation") -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                     np.ndarray]:
-        """Particle-wall contacts now: particle index, wall index, force on the particle
-        (M, 3), branch vector from the wall's contact point to the centre (M, 3).
-
-        Evaluated on copies: histories and particle forces are not touched.
-        """
-        self._check_types(sim)
-        st = sim.state
+    def contacts(self, ctx: ForceContext) -> list[ContactRows]:
+        """Particle-wall contacts now: particle index, wall index, force on the particle,
+        branch vector from the wall's contact point to the centre. Read-only: the force and
+        torque arrays and every history are left as they are."""
+        st = ctx.state
         out = np.zeros((st.n * self.n_walls, 6))
-        self._run(sim, sim.time, self._history(sim).copy(), np.zeros((st.n, 3)),
-                  np.zeros((st.n, 3)), False, out)
+        self._run(ctx, ctx.time, False, np.zeros((st.n, 3)), np.zeros((st.n, 3)), out)
         slots = np.nonzero(np.any(out[:, :3] != 0.0, axis=1))[0]
-        return slots // self.n_walls, slots % self.n_walls, out[slots, :3], out[slots, 3:]
+        return [ContactRows(slots // self.n_walls, slots % self.n_walls, WALL, out[slots, :3],
+                            out[slots, 3:])]
 
-    def max_overlap(self, sim: "Simulation") -> float:
-        """Largest particle-wall overlap ``r_i - |x_i - c|`` now (0 if none)."""
-        st = sim.state
-        return float(wall_max_overlap(self.kinds, self.params, self._shift(sim.time), st.x,
-                                      st.radius, st.frozen))
+    def max_overlap(self, ctx: ForceContext) -> tuple[float, float, int]:
+        """Largest particle-wall overlap ``r_i - |x_i - c|`` now: absolute, relative to the
+        radius, and the index of the particle with the latter (``(0, 0, -1)`` if none)."""
+        st = ctx.state
+        if st.n == 0:
+            return 0.0, 0.0, -1
+        self._check_types(st)
+        ov = wall_overlaps(self.kinds, self.params, self._shift(ctx.time), st.x, st.radius,
+                           st.frozen, self._acts_on, st.type)
+        rel = ov / st.radius
+        i = int(np.argmax(rel))
+        if rel[i] <= 0.0:
+            return 0.0, 0.0, -1
+        return float(ov.max()), float(rel[i]), i
+
+    def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
+        """Contact time (and kinetic relaxation time) of the lightest and smallest mobile
+        particle of each type the walls touch, against an infinitely heavy wall."""
+        st = ctx.state
+        mobile = ~st.frozen
+        if not mobile.any():
+            return []
+        self._check_types(st)
+        out = []
+        for t in np.unique(st.type[mobile]):
+            if not self._acts_on[t]:
+                continue
+            sel = mobile & (st.type == t)
+            m, r = float(st.mass[sel].min()), float(st.radius[sel].min())
+            what = f"walls (type {self.wall_type}) on particle type {t}"
+            out.append(TimeScale(self.law.contact_time(int(t), self.wall_type, m, r),
+                                 "oscillation", what))
+            tau = self.law.relaxation_time(int(t), self.wall_type, m)
+            if np.isfinite(tau):
+                out.append(TimeScale(tau, "relaxation", what))
+        return out

@@ -1,0 +1,229 @@
+"""The ``[contact]`` table: contact laws per type pair, generated from the model registry.
+
+Every field of ``[contact]`` and of its ``[[contact.pairs]]`` overrides comes from
+:mod:`grainflow.models.registry`: the preset names (``law``), the sub-model names per slot
+(``model = {normal = "hertz"}``) and the parameters of every sub-model (with their units,
+limits and defaults, :class:`grainflow.models.submodel.Param`). A new sub-model therefore
+appears here, and in the reference tables of docs/config.md (:func:`reference_markdown`),
+without a change to this file. Regenerate those tables with::
+
+    python -m grainflow.config.contact docs/config.md
+
+A type pair's law is its override's ``law``/``model`` if it gives one, else ``[contact]``'s;
+type pairs with the same composition share one
+:class:`~grainflow.models.base.ContactLaw`, and each distinct composition becomes one pair
+interaction of the simulation.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, create_model, model_validator
+
+from grainflow.config.units import parse_quantity
+from grainflow.models.base import ContactLaw
+from grainflow.models.registry import PRESETS, SUBMODELS, composition, submodel
+from grainflow.models.submodel import SLOTS, Param
+
+__all__ = ["Contact", "ContactPair", "reference_markdown", "write_reference"]
+
+
+def _all_params() -> dict[str, list[tuple[str, str, Param]]]:
+    """Parameter name -> [(slot, model, Param)] over the whole registry."""
+    out: dict[str, list[tuple[str, str, Param]]] = {}
+    for slot, name in SUBMODELS:
+        for p in submodel(slot, name).params:
+            out.setdefault(p.name, []).append((slot, name, p))
+    return out
+
+
+def _literal(values: list[str]) -> Any:
+    return Literal[tuple(values)]  # type: ignore[valid-type]
+
+
+_ModelChoice = create_model(
+    "ModelChoice", __config__=ConfigDict(extra="forbid"),
+    __doc__="Sub-model names per slot (override the preset's).",
+    **{slot: (_literal([n for s, n in SUBMODELS if s == slot]) | None,
+              Field(None, description=f"{slot} sub-model")) for slot in SLOTS})
+
+_PARAM_FIELDS = {
+    name: (Any, Field(None, description="; ".join(
+        f"{model} ({slot}): {p.description}" for slot, model, p in uses)))
+    for name, uses in _all_params().items()}
+
+
+class _LawEntry(BaseModel):
+    """What ``[contact]`` and each override share: a composition and parameters."""
+
+    model_config = ConfigDict(extra="forbid", validate_default=True)
+
+    law: _literal(list(PRESETS)) | None = Field(  # type: ignore[valid-type]
+        None, description="preset composition: " + "; ".join(
+            f"{p.name}: {p.description}" for p in PRESETS.values()))
+    model: _ModelChoice | None = Field(None, description="sub-model per slot")  # type: ignore
+
+    def given(self) -> dict[str, Any]:
+        """The parameters written in this table (raw: numbers or quantities with units)."""
+        return {k: v for k, v in self.model_dump(exclude={"law", "model", "types", "pairs"},
+                                                  exclude_none=True).items()}
+
+    def composition(self, inherited: dict[str, str] | None = None) -> dict[str, str] | None:
+        """Slot -> sub-model of this table, or None when it names none (inherits)."""
+        chosen = {k: v for k, v in (self.model.model_dump() if self.model else {}).items()
+                  if v is not None}
+        if self.law is None and not chosen:
+            return inherited
+        if self.law is None and inherited is not None:
+            return composition(None, **{**inherited, **chosen})
+        return composition(self.law, **chosen)
+
+
+_ParamsBase = create_model("_ParamsBase", __base__=_LawEntry, **_PARAM_FIELDS)
+
+
+class ContactPair(_ParamsBase):  # type: ignore[misc, valid-type]
+    """One type pair's override of ``[contact]``."""
+
+    types: list[Annotated[int, Field(ge=0)]] = Field(min_length=2, max_length=2)
+
+
+class Contact(_ParamsBase):  # type: ignore[misc, valid-type]
+    """``[contact]``: the law of every type pair, with per-pair overrides."""
+
+    pairs: list[ContactPair] = []
+    _entries: dict[tuple[int, int], tuple[dict[str, str], dict[str, Any]]] = PrivateAttr(
+        default_factory=dict)
+
+    @model_validator(mode="after")
+    def _resolve(self) -> "Contact":
+        base_models = self.composition()
+        if base_models is None:
+            raise ValueError("law: missing; choose a preset (law = "
+                             f"{' or '.join(repr(p) for p in PRESETS)}) or name the "
+                             "sub-models (model = {normal = ...})")
+        base = _checked(base_models, self.given(), "")
+        entries = {(-1, -1): (base_models, base)}
+        for k, pair in enumerate(self.pairs):
+            where = f"pairs[{k}]."
+            models = pair.composition(base_models)
+            own = _checked(models, pair.given(), where)
+            if models == base_models:
+                groups = {_group(models, n) for n in own} - {None}
+                inherited = {n: v for n, v in base.items() if _group(models, n) not in groups}
+                params = {**inherited, **own}
+            else:  # another law: nothing of [contact]'s parameters applies
+                params = own
+            _complete(models, params, where)
+            a, b = sorted(pair.types)
+            if (a, b) in entries:
+                raise ValueError(f"{where}types: [{a}, {b}] is overridden twice; merge the "
+                                 "two [[contact.pairs]] tables")
+            entries[(a, b)] = (models, params)
+        _complete(base_models, base, "")
+        self._entries = entries
+        return self
+
+    def entry(self, a: int, b: int) -> tuple[dict[str, str], dict[str, Any]]:
+        """Composition and parameters (SI values, inputs unresolved) of the type pair."""
+        return self._entries.get((min(a, b), max(a, b)), self._entries[(-1, -1)])
+
+    def pair_params(self) -> dict[tuple[int, int], dict[str, Any]]:
+        """The parameters of the default ``(-1, -1)`` and of every override."""
+        return {k: dict(v[1]) for k, v in self._entries.items()}
+
+
+def _slot_param(models: dict[str, str], name: str) -> Param | None:
+    for slot in SLOTS:
+        for p in submodel(slot, models[slot]).params:
+            if p.name == name:
+                return p
+    return None
+
+
+def _group(models: dict[str, str], name: str) -> str | None:
+    p = _slot_param(models, name)
+    return p.group if p is not None else None
+
+
+def _checked(models: dict[str, str], given: dict[str, Any], where: str) -> dict[str, Any]:
+    """Parse units and limits of the given parameters of a composition."""
+    out: dict[str, Any] = {}
+    for name, value in given.items():
+        p = _slot_param(models, name)
+        if p is None:
+            owners = ", ".join(f"{m} ({s})" for s, m, _ in _all_params()[name])
+            raise ValueError(f"{where}{name}: not a parameter of the law "
+                             f"{'/'.join(models[s] for s in SLOTS)}; it belongs to {owners}")
+        try:
+            if p.choices is not None:
+                p.check(value)
+                out[name] = value
+            else:
+                out[name] = p.check(parse_quantity(value, p.dimension, field=name))
+        except ValueError as err:
+            raise ValueError(f"{where}{err}") from None
+    return out
+
+
+def _complete(models: dict[str, str], params: dict[str, Any], where: str) -> None:
+    """Build one table row (effective mass 1) to report a missing or inconsistent
+    parameter now rather than when the simulation is built."""
+    law = ContactLaw(**models)
+    try:
+        law.set_pair(0, 0, **law.resolve(params, 1.0))
+    except ValueError as err:
+        raise ValueError(f"{where}{err}") from None
+
+
+# ---------------------------------------------------------------------------- reference
+_START = "<!-- contact-reference: generated by python -m grainflow.config.contact -->"
+_END = "<!-- end of contact-reference -->"
+
+
+def reference_markdown() -> str:
+    """The reference of the registry's presets, sub-models and parameters (Markdown)."""
+    lines = ["| `law` | `normal` | `damping` | `tangential` | `cohesion` | what |",
+             "|---|---|---|---|---|---|"]
+    for p in PRESETS.values():
+        models = composition(p.name)
+        lines.append(f"| `\"{p.name}\"` | " + " | ".join(f"`{models[s]}`" for s in SLOTS)
+                     + f" | {p.description} |")
+    for slot in SLOTS:
+        lines += ["", f"### `model.{slot}`", ""]
+        for s, name in SUBMODELS:
+            if s != slot:
+                continue
+            cls = submodel(slot, name)
+            lines.append(f"- `\"{name}\"`: {cls.summary} (`{cls.__module__}`)")
+            for p in cls.params:
+                unit = (" / ".join(f'`"{c}"`' for c in p.choices) if p.choices is not None
+                        else p.dimension or "number")
+                bound = "" if p.choices is not None else (
+                    f", {'>' if p.strict else '>='} {p.lower:g}"
+                    + (f", <= {p.upper:g}" if p.upper != float("inf") else ""))
+                lines.append(f"  - `{p.name}` ({unit}{bound}; default {p.describe_default()}):"
+                             f" {p.description}")
+    return "\n".join(lines) + "\n"
+
+
+def write_reference(path: str | Path) -> bool:
+    """Replace the generated block of ``path`` (docs/config.md); True if it changed."""
+    path = Path(path)
+    text = path.read_text()
+    if _START not in text or _END not in text:
+        raise ValueError(f"{path}: no generated block ({_START} ... {_END})")
+    head, rest = text.split(_START, 1)
+    _, tail = rest.split(_END, 1)
+    new = f"{head}{_START}\n\n{reference_markdown()}\n{_END}{tail}"
+    if new != text:
+        path.write_text(new)
+    return new != text
+
+
+if __name__ == "__main__":  # pragma: no cover
+    for target in sys.argv[1:]:
+        print(f"{target}: {'updated' if write_reference(target) else 'up to date'}")

@@ -1,0 +1,153 @@
+"""Reader for LAMMPS data files with ``atom_style sphere``.
+
+Atoms line: ``id type diameter density x y z [ix iy iz]``; Velocities line:
+``id vx vy vz wx wy wz``. Mass is ``density * pi d^3 / 6`` (3D), as LAMMPS computes it
+(a diameter of 0 would be a point particle and is refused). Only orthogonal boxes are read.
+Gzip-compressed files (``data.chute.gz``) are read as they are: compression is recognised by
+the file's first bytes, not its name.
+
+Reading particles from a data file is a kind of fill, so the reader lives in
+:mod:`grainflow.insertion` (scenarios may use it); :mod:`grainflow.io.lammps_data`
+re-exports it.
+"""
+
+from __future__ import annotations
+
+import gzip
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from grainflow.frame import Box
+from grainflow.state import ParticleState
+
+
+@dataclass
+class LammpsData:
+    """Contents of a data file, sorted by atom id."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    id: np.ndarray
+    type: np.ndarray
+    diameter: np.ndarray
+    density: np.ndarray
+    x: np.ndarray
+    image: np.ndarray
+    v: np.ndarray
+    omega: np.ndarray
+
+
+def read_lammps_data(path: str | Path) -> LammpsData:
+    """Parse a LAMMPS ``atom_style sphere`` data file, plain or gzip-compressed."""
+    path = Path(path)
+    lines = _read_text(path).splitlines()
+    lo = np.zeros(3)
+    hi = np.zeros(3)
+    natoms = None
+    tilted = False
+    sections: dict[str, list[str]] = {}
+    current = None
+    for raw in lines[1:]:
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        words = line.split()
+        if current is None or words[0] in ("Atoms", "Velocities", "Masses", "Bonds"):
+            if line.endswith("atoms") and len(words) == 2:
+                natoms = int(words[0])
+                continue
+            if line.endswith("xy xz yz"):
+                tilted = True
+            for a, tag in enumerate(("xlo xhi", "ylo yhi", "zlo zhi")):
+                if line.endswith(tag):
+                    lo[a], hi[a] = float(words[0]), float(words[1])
+            if words[0] in ("Atoms", "Velocities", "Masses", "Bonds"):
+                current = words[0]
+                sections[current] = []
+                if current == "Atoms" and len(words) > 1 and words[1] != "sphere":
+                    raise ValueError(f"{path}: Atoms section is '{words[1]}', expected sphere")
+            continue
+        if words[0][0].isalpha():
+            current = words[0]
+            sections[current] = []
+            continue
+        sections[current].append(line)
+    if natoms is None or "Atoms" not in sections:
+        raise ValueError(f"{path}: not a LAMMPS data file (no atom count or Atoms section)")
+    if tilted:
+        raise ValueError(f"{path}: triclinic box (xy xz yz line); only orthogonal boxes are "
+                         "read: write the data file from an orthogonal region")
+    atoms = _numeric_table(path, "Atoms", sections["Atoms"])
+    if atoms.shape[0] != natoms:
+        raise ValueError(f"{path}: header says {natoms} atoms, Atoms section has "
+                         f"{atoms.shape[0]}")
+    if atoms.shape[1] not in (7, 10):
+        raise ValueError(f"{path}: Atoms lines have {atoms.shape[1]} columns; atom_style "
+                         "sphere needs 7 (id type diameter density x y z) or 10 (+ images)")
+    order = np.argsort(atoms[:, 0])
+    atoms = atoms[order]
+    image = atoms[:, 7:10].astype(np.int64) if atoms.shape[1] == 10 else np.zeros((natoms, 3),
+                                                                               dtype=np.int64)
+    v = np.zeros((natoms, 3))
+    omega = np.zeros((natoms, 3))
+    if "Velocities" in sections:
+        vel = _numeric_table(path, "Velocities", sections["Velocities"])
+        if vel.shape[1] != 7:
+            raise ValueError(f"{path}: Velocities lines have {vel.shape[1]} columns; atom_style "
+                             "sphere needs 7 (id vx vy vz wx wy wz)")
+        index = {int(a): k for k, a in enumerate(atoms[:, 0])}
+        unknown = [int(a) for a in vel[:, 0] if int(a) not in index]
+        if unknown:
+            raise ValueError(f"{path}: Velocities section names atom id(s) {unknown[:5]} that "
+                             "the Atoms section does not have")
+        rows = np.array([index[int(a)] for a in vel[:, 0]], dtype=np.int64)
+        v[rows] = vel[:, 1:4]
+        omega[rows] = vel[:, 4:7]
+    diameter = atoms[:, 2]
+    if np.any(diameter <= 0):
+        raise ValueError(f"{path}: point particles (diameter 0) are not supported")
+    return LammpsData(lo=lo, hi=hi, id=atoms[:, 0].astype(np.int64),
+                      type=atoms[:, 1].astype(np.int32), diameter=diameter, density=atoms[:, 3],
+                      x=atoms[:, 4:7], image=image, v=v, omega=omega)
+
+
+def _read_text(path: Path) -> str:
+    """The file's text, decompressed if it is gzip; unreadable content names the file."""
+    raw = path.read_bytes()
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError, zlib.error) as exc:
+            raise ValueError(f"{path}: damaged gzip file ({exc})") from None
+    try:
+        return raw.decode()
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a LAMMPS data file (not text)") from None
+
+
+def _numeric_table(path: Path, section: str, rows: list[str]) -> np.ndarray:
+    """The lines of one section as a float table; ragged or non-numeric lines are named."""
+    counts = [len(r.split()) for r in rows]
+    if len(set(counts)) > 1:
+        width = max(set(counts), key=counts.count)  # the most common line length
+        bad, n_bad = next((r, c) for r, c in zip(rows, counts) if c != width)
+        raise ValueError(f"{path}: {section} line '{bad}' has {n_bad} columns, the others "
+                         f"{width}")
+    try:
+        return np.array([r.split() for r in rows], dtype=float).reshape(len(rows), -1)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {section} section has a non-numeric entry ({exc})") from None
+
+
+def state_from_lammps_data(data: LammpsData, periodic: tuple[bool, bool, bool],
+                           type_offset: int = 1) -> ParticleState:
+    """Build a 3D :class:`ParticleState`; LAMMPS types 1.. become 0.. (``type_offset``)."""
+    box = Box(lo=data.lo.copy(), hi=data.hi.copy(), periodic=tuple(periodic))
+    st = ParticleState(3, box)
+    st.add_particles(data.x, 0.5 * data.diameter, density=data.density, v=data.v,
+                     omega=data.omega, type=data.type - type_offset, ids=data.id)
+    st.image[:] = data.image
+    return st

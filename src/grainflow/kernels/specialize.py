@@ -1,0 +1,75 @@
+"""Compile a template function with some of its global names bound to chosen objects.
+
+numba calls a function passed as an argument through a pointer; a function bound as a
+*global* of the caller is inlined when declared ``inline='always'``, and a global number is a
+compile-time constant. The pair loop, the wall loop and the composed contact laws are
+written once as templates whose free names (``evaluate``, ``normal_force``, column offsets
+...) are bound here, so each law gets its own fully inlined kernel.
+
+Kernels are cached on disk like the other kernels when every bound function's source file
+can be read: the compiled function's name carries a checksum of those files, of the
+template's file and of the bound names and constants, so editing a law or a sub-model
+recompiles its kernels.
+"""
+
+from __future__ import annotations
+
+import inspect
+import types
+import zlib
+from pathlib import Path
+from typing import Any, Callable
+
+from numba import njit
+
+_CACHE: dict[tuple, Any] = {}
+
+
+def _source_of(obj: Any) -> bytes | None:
+    """The bytes of the file that defines ``obj`` (a numba dispatcher or a function)."""
+    fn = getattr(obj, "py_func", obj)
+    try:
+        return Path(inspect.getfile(fn)).read_bytes()
+    except (OSError, TypeError):  # e.g. defined interactively
+        return None
+
+
+def _label(obj: Any) -> str:
+    fn = getattr(obj, "py_func", obj)
+    if callable(fn) and hasattr(fn, "__qualname__"):
+        return f"{fn.__module__}.{fn.__qualname__}"
+    return repr(obj)
+
+
+def specialize(template: Callable, name: str, bindings: dict[str, Any],
+               **njit_options: Any) -> Any:
+    """``njit(**njit_options)`` of ``template`` with the globals in ``bindings`` replaced.
+
+    ``name`` labels the compiled function (cache files and profiles); the same template,
+    name and bindings return the same compiled object.
+    """
+    key = (template, name, tuple(sorted((k, id(v)) for k, v in bindings.items())),
+           tuple(sorted(njit_options.items())))
+    compiled = _CACHE.get(key)
+    if compiled is not None:
+        return compiled
+    sources = [_source_of(template)]
+    text = [_label(template)]
+    for k, v in sorted(bindings.items()):
+        if callable(v) or hasattr(v, "py_func"):
+            sources.append(_source_of(v))
+            text.append(f"{k}={_label(v)}")
+        else:
+            text.append(f"{k}={v!r}")
+    cacheable = all(s is not None for s in sources)
+    digest = zlib.crc32("|".join(text).encode() + b"".join(s or b"" for s in sources))
+    full_name = f"{name}_{digest:08x}"
+    code = template.__code__.replace(co_name=full_name)
+    fn = types.FunctionType(code, {**template.__globals__, **bindings}, full_name)
+    fn.__qualname__ = full_name
+    fn.__doc__ = template.__doc__
+    options = dict(njit_options)
+    if options.get("inline") != "always":
+        options.setdefault("cache", cacheable)
+    compiled = _CACHE[key] = njit(**options)(fn)
+    return compiled

@@ -1,0 +1,117 @@
+"""Results of hopper runs (seed 003) read back from their run directories.
+
+:func:`flow_summary` is the sweep analysis of the hopper study (``analyses =
+["grainflow.studies.hopper_results:flow_summary"]``); :func:`read_events` gives a run's
+orifice-crossing events. Both read files the runner and the demo write (``events.csv``,
+``checkpoint.npz``, ``config.toml``, ``summary.json``, ``frames.h5``), so they live here,
+above the scenario (:mod:`grainflow.scenarios.hopper`), which never reads run directories.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from grainflow.scenarios.hopper import DIAMETER_RATIO, EVENTS, SIGMA_SMALL
+from grainflow.scenarios.hopper_reinsertion import grain_size, read_events_csv
+
+if TYPE_CHECKING:
+    from grainflow.analysis.hopper import FlowRate
+
+__all__ = ["flow_summary", "read_events"]
+
+
+def read_events(rundir: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Crossing events ``(times, ids, sizes)`` of a run directory.
+
+    From ``events.csv`` when present (the demo and the study write it), else from the
+    reinsertion updater's state in ``checkpoint.npz`` (every run through the runner ends
+    with a checkpoint).
+    """
+    rundir = Path(rundir)
+    if (rundir / EVENTS).is_file():
+        return read_events_csv(rundir / EVENTS)
+    from grainflow.runner import CHECKPOINT, read_checkpoint
+
+    path = rundir / CHECKPOINT
+    if not path.is_file():
+        raise FileNotFoundError(f"{rundir}: neither {EVENTS} nor {CHECKPOINT}; not a hopper run")
+    updaters = read_checkpoint(path)["sim"].get("updaters", {})
+    for data in updaters.values():
+        if isinstance(data, dict) and "event_times" in data:
+            return (np.asarray(data["event_times"], float),
+                    np.asarray(data["event_ids"], np.int64),
+                    np.asarray(data["event_sizes"], float))
+    raise ValueError(f"{path}: holds no hopper crossing events (not a hopper run?)")
+
+
+def _run_info(rundir: Path) -> dict[str, Any]:
+    import tomllib
+
+    info: dict[str, Any] = {}
+    cfg = rundir / "config.toml"
+    if cfg.is_file():
+        data = tomllib.loads(cfg.read_text())
+        info["dim"] = data.get("dim")
+        info["orifice_width"] = data.get("hopper", {}).get("orifice_width")
+        info["t_end"] = None
+    summary = rundir / "summary.json"
+    if summary.is_file():
+        import json
+
+        info["t_end"] = json.loads(summary.read_text()).get("time")
+        info["wall_time_s"] = json.loads(summary.read_text()).get("wall_time_s")
+    return info
+
+
+def flow_summary(rundir: str | Path) -> dict[str, float]:
+    """Sweep analysis: steady flow rate of a hopper run from its saved crossing events.
+
+    Returns ``Q`` and ``Q_err`` (area/volume rate in Q0 = sigma_avg^d/t0, steady window by
+    MSER, error bars from 10 blocks, or 5-9 for records of under 200 events:
+    :func:`~grainflow.analysis.hopper.flow_rate_from_events`),
+    ``number_rate`` and its error (grains per t0), ``n_events``, the steady window
+    ``t_start``/``t_end``, ``w`` (from config.toml) and the run's ``wall_time_s``. With saved
+    frames (``frames.h5``) also ``Q_prime``/``Q_prime_err``, the overlap-corrected rate of
+    seed Appendix B, from the number density in the 2w x w region above the orifice over the
+    frames of the steady window. Pure function of files in ``rundir``.
+    """
+    from grainflow.analysis.hopper import flow_rate_from_events
+
+    rundir = Path(rundir)
+    times, _, sizes = read_events(rundir)
+    info = _run_info(rundir)
+    # 10 blocks for the error bar, fewer (down to 5) for a short record: >= 20 events a block
+    n_blocks = int(np.clip(times.size // 20, 5, 10))
+    flow = flow_rate_from_events(times, sizes, t_begin=0.0, t_end=info.get("t_end"),
+                                 n_blocks=n_blocks)
+    out = {"Q": flow.flow_rate, "Q_err": flow.flow_rate_err,
+           "number_rate": flow.number_rate, "number_rate_err": flow.number_rate_err,
+           "n_events": float(flow.n_events), "t_start": flow.t_start, "t_end": flow.t_end}
+    if info.get("orifice_width") is not None:
+        out["w"] = float(info["orifice_width"])
+    if info.get("wall_time_s") is not None:
+        out["wall_time_s"] = float(info["wall_time_s"])
+    if (rundir / "frames.h5").is_file() and info.get("orifice_width") and info.get("dim"):
+        out.update(_overlap_corrected(rundir, flow, int(info["dim"]), float(info["orifice_width"])))
+    return out
+
+
+def _overlap_corrected(rundir: Path, flow: "FlowRate", dim: int, w: float) -> dict[str, float]:
+    """Q' of seed Appendix B from the frames of the steady window (empty if < 2 frames)."""
+    from grainflow.analysis.hopper import orifice_number_density, overlap_corrected_flow_rate
+    from grainflow.io.h5md import read_frames
+
+    positions = [fr.position for fr in read_frames(rundir / "frames.h5")
+                 if flow.t_start <= fr.time <= flow.t_end]
+    if len(positions) < 2:
+        return {}
+    rho, rho_err = orifice_number_density(positions, np.zeros(dim), w)
+    a_avg = float(np.mean(grain_size(0.5 * SIGMA_SMALL * np.array([1.0, DIAMETER_RATIO]), dim)))
+    corrected = overlap_corrected_flow_rate(flow.flow_rate, rho, a_avg,
+                                            flow_rate_err=flow.flow_rate_err,
+                                            number_density_err=rho_err)
+    return {"Q_prime": corrected.flow_rate, "Q_prime_err": corrected.flow_rate_err,
+            "number_density": rho}
