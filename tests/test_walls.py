@@ -378,9 +378,13 @@ def test_normal_is_unit_and_points_to_the_acting_side(wall, random_points):
         c, ok, n = wall.closest_point(x)
         d = x - c
         assert np.linalg.norm(n) == pytest.approx(1.0, abs=1e-12)
-        if isinstance(wall, Segment):  # n = +-l (3D rods: not necessarily along d)
-            assert n @ d > 0 if wall.planar() else n @ d >= 0
-        if not (isinstance(wall, Segment) and not wall.planar()):
+        if isinstance(wall, Segment):  # n = +-l, towards x; along d inside a 2D segment
+            assert abs(n @ wall.left_normal) == pytest.approx(1.0) and n @ d >= 0
+            interior = 0 < (c - wall.p0) @ np.subtract(wall.p1, wall.p0) < np.sum(
+                np.subtract(wall.p1, wall.p0) ** 2)
+            if wall.planar() and interior:
+                np.testing.assert_allclose(n, d / np.linalg.norm(d), atol=1e-9)
+        else:
             # n is the wall's normal at c: along x - c, to the acting side; only the rim of a
             # closed end, seen from outside, has a normal cone (n: the corner's bisector)
             along = d / np.linalg.norm(d)

@@ -45,18 +45,11 @@ class Clock:
     step: int = 0
 
 
-class ForceContext:
-    """What forces and integrators see: the particles, the box, the neighbour list, the
-    clock. Forces add into ``state.force`` and ``state.torque``."""
+class _Clocked:
+    """Read access to a context's :class:`Clock`."""
 
-    __slots__ = ("state", "geometry", "neighbors", "clock")
-
-    def __init__(self, state: ParticleState, geometry: "ListGeometry",
-                 neighbors: "NeighborList", clock: Clock) -> None:
-        self.state = state
-        self.geometry = geometry
-        self.neighbors = neighbors
-        self.clock = clock
+    __slots__ = ()
+    clock: Clock
 
     @property
     def dt(self) -> float:
@@ -69,6 +62,20 @@ class ForceContext:
     @property
     def step(self) -> int:
         return self.clock.step
+
+
+class ForceContext(_Clocked):
+    """What forces and integrators see: the particles, the box, the neighbour list, the
+    clock. Forces add into ``state.force`` and ``state.torque``."""
+
+    __slots__ = ("state", "geometry", "neighbors", "clock")
+
+    def __init__(self, state: ParticleState, geometry: "ListGeometry",
+                 neighbors: "NeighborList", clock: Clock) -> None:
+        self.state = state
+        self.geometry = geometry
+        self.neighbors = neighbors
+        self.clock = clock
 
 
 class ParticleEditor(Protocol):
@@ -123,7 +130,7 @@ class ObserverQueries(Protocol):
     def max_overlap(self) -> float: ...
 
 
-class ObserverContext:
+class ObserverContext(_Clocked):
     """What observers see: the clock, the particles (to read, not to change) and read-only
     queries. Nothing reached from here advances a contact history."""
 
@@ -133,18 +140,6 @@ class ObserverContext:
         self.state = state
         self.clock = clock
         self._queries = queries
-
-    @property
-    def dt(self) -> float:
-        return self.clock.dt
-
-    @property
-    def time(self) -> float:
-        return self.clock.time
-
-    @property
-    def step(self) -> int:
-        return self.clock.step
 
     @property
     def rebuilds(self) -> int:

@@ -6,10 +6,12 @@ compile-time constant. The pair loop, the wall loop and the composed contact law
 written once as templates whose free names (``evaluate``, ``normal_force``, column offsets
 ...) are bound here, so each law gets its own fully inlined kernel.
 
-Kernels are cached on disk like the other kernels when every bound function's source file
-can be read: the compiled function's name carries a checksum of those files, of the
-template's file and of the bound names and constants, so editing a law or a sub-model
-recompiles its kernels.
+Kernels are cached on disk like the other kernels when every source file involved can be
+read: the compiled function's name carries a checksum of the template's file, of the bound
+names and constants, and of the file of every compiled function the template or a bound
+function calls (followed through their globals), so editing a law, a sub-model or a helper
+such as the walls' closest-point kernel recompiles the kernels that inline it. (numba's own
+cache checks only the file of the function it compiles.)
 """
 
 from __future__ import annotations
@@ -32,6 +34,21 @@ def _source_of(obj: Any) -> bytes | None:
         return Path(inspect.getfile(fn)).read_bytes()
     except (OSError, TypeError):  # e.g. defined interactively
         return None
+
+
+def _callees(fn: Any, namespace: dict[str, Any], seen: set[int]) -> list[Any]:
+    """Every compiled function that ``fn`` (a Python function) names among ``namespace``,
+    and theirs, recursively."""
+    out = []
+    for name in getattr(fn, "__code__", None).co_names if hasattr(fn, "__code__") else ():
+        obj = namespace.get(name)
+        inner = getattr(obj, "py_func", None)
+        if inner is None or id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        out.append(obj)
+        out += _callees(inner, inner.__globals__, seen)
+    return out
 
 
 def _label(obj: Any) -> str:
@@ -57,10 +74,13 @@ def specialize(template: Callable, name: str, bindings: dict[str, Any],
     text = [_label(template)]
     for k, v in sorted(bindings.items()):
         if callable(v) or hasattr(v, "py_func"):
-            sources.append(_source_of(v))
             text.append(f"{k}={_label(v)}")
         else:
             text.append(f"{k}={v!r}")
+    namespace = {**template.__globals__, **bindings}
+    for callee in _callees(template, namespace, set()):
+        sources.append(_source_of(callee))
+        text.append(_label(callee))
     cacheable = all(s is not None for s in sources)
     digest = zlib.crc32("|".join(text).encode() + b"".join(s or b"" for s in sources))
     full_name = f"{name}_{digest:08x}"

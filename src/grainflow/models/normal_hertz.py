@@ -6,8 +6,9 @@
 (``R = r_i`` against a wall), i.e. Hertz's ``F = (4/3) E^* sqrt(R) delta^{3/2}`` with
 ``k_n = 4 E^*/3`` (Johnson, *Contact Mechanics*, eq. 4.22; LAMMPS manual, ``pair_style
 granular``, "hertz"). Without damping a head-on collision at speed ``v`` reaches the
-overlap ``delta_max = (15 m_eff v^2 / (16 k_n sqrt(R)))^(2/5)`` and lasts
-``t_c = 2.9432 delta_max / v`` (``tests/test_hertz.py``).
+overlap ``delta_max = (5 m_eff v^2 / (4 k_n sqrt(R)))^(2/5)`` (energy: ``m_eff v^2 / 2 =
+(2/5) k_n sqrt(R) delta_max^(5/2)``) and lasts ``t_c = 2 (delta_max / v) int_0^1 dx /
+sqrt(1 - x^(5/2)) = 2.9432 delta_max / v`` (Johnson eq. 11.24; ``tests/test_hertz.py``).
 
 For the time-step check the stiffness ``dF/d delta = 1.5 k_n sqrt(R delta)`` is taken at
 ``delta`` = 1 % of the contact distance (:data:`REFERENCE_OVERLAP`), a typical overlap of

@@ -40,7 +40,7 @@ from __future__ import annotations
 from typing import Any, Iterable
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import WALL
@@ -134,8 +134,13 @@ def _wall_loop(table, wall_type, acts_on, kinds, params, shift, wall_v, x, v, om
             torque[i, 2] -= ri * t2
 
 
-@njit(cache=True, parallel=True)
 def wall_overlaps(kinds, params, shift, x, radius, frozen, acts_on, ptype):
+    """Per particle, the largest overlap with a wall (:func:`_wall_overlaps`)."""
+    return specialize(_wall_overlaps, "wall_overlaps", {}, parallel=True)(
+        kinds, params, shift, x, radius, frozen, acts_on, ptype)
+
+
+def _wall_overlaps(kinds, params, shift, x, radius, frozen, acts_on, ptype):
     """Per particle, the largest ``r_i - |x_i - c|`` over the walls it is on the acting
     side of (0 if none, or if frozen or of a type the walls do not touch)."""
     n = x.shape[0]

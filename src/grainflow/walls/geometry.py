@@ -46,66 +46,42 @@ N_PARAMS = 20
 
 
 @njit(cache=True)
-def _revolution(p, row, x0, x1, x2):
-    """:func:`closest_point` of a :class:`Cylinder` or :class:`Cone`."""
-    # A surface of revolution about the axis line P + s a. In the meridian half-plane
-    # (s along the axis, rho >= 0 off it) the side is the segment
-    # (s, rho) = (0, R0) + l (us, ur), l_lo <= l <= l_hi (us > 0; +-inf for an infinite
-    # tube); lids are the disks s = s_end, rho <= rho_end at finite ends.
-    # p = [P(3), unit axis a(3), R0, us, ur, l_lo, l_hi, inside, lid_lo, lid_hi,
-    #      e_perp(3)]
-    r0 = x0 - p[row, 0]
-    r1 = x1 - p[row, 1]
-    r2 = x2 - p[row, 2]
+def _revolution_end(p, row, x0, x1, x2, s, rho, e0, e1, e2, l):
+    """:func:`closest_point` of a :class:`Cylinder` or :class:`Cone` where an end may be
+    closest (beyond the range, or with lids): the rims and lids, kept out of the common path.
+    """
     a0 = p[row, 3]
     a1 = p[row, 4]
     a2 = p[row, 5]
-    s = r0 * a0 + r1 * a1 + r2 * a2
-    q0 = r0 - s * a0
-    q1 = r1 - s * a1
-    q2 = r2 - s * a2
-    rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-    if rho > 0.0:
-        inv = 1.0 / rho
-        e0 = q0 * inv
-        e1 = q1 * inv
-        e2 = q2 * inv
-    else:
-        e0 = p[row, 14]
-        e1 = p[row, 15]
-        e2 = p[row, 16]
     rad0 = p[row, 6]
     us = p[row, 7]
     ur = p[row, 8]
     llo = p[row, 9]
     lhi = p[row, 10]
     inside = p[row, 11] > 0.0
-    l = s * us + (rho - rad0) * ur
     lc = min(max(l, llo), lhi)
     cs = lc * us
     cr = rad0 + lc * ur
     where = 0  # 0 side face, 1 rim at l_lo, 2 rim at l_hi, 3 lid at l_lo, 4 lid at l_hi
     if lc != l:
         where = 1 if lc == llo else 2
-    if p[row, 12] > 0.0 or p[row, 13] > 0.0:
-        best = (s - cs) * (s - cs) + (rho - cr) * (rho - cr)
-        for end in range(2):
-            if p[row, 12 + end] > 0.0:
-                le = llo if end == 0 else lhi
-                se = le * us
-                re = rad0 + le * ur
-                if rho < re and (s - se) * (s - se) < best:
-                    best = (s - se) * (s - se)
-                    where = 3 + end
-                    cs = se
-                    cr = rho
+    best = (s - cs) * (s - cs) + (rho - cr) * (rho - cr)
+    for end in range(2):
+        if p[row, 12 + end] > 0.0:
+            le = llo if end == 0 else lhi
+            se = le * us
+            re = rad0 + le * ur
+            if rho < re and (s - se) * (s - se) < best:
+                best = (s - se) * (s - se)
+                where = 3 + end
+                cs = se
+                cr = rho
     c0 = p[row, 0] + cs * a0 + cr * e0
     c1 = p[row, 1] + cs * a1 + cr * e1
     c2 = p[row, 2] + cs * a2 + cr * e2
     if where >= 3:  # a lid: acts towards the inside of the range when inside
-        hs = s - cs
         sgn = 1.0 if (where == 3) == inside else -1.0
-        return c0, c1, c2, sgn * hs >= 0.0, sgn * a0, sgn * a1, sgn * a2
+        return c0, c1, c2, sgn * (s - cs) >= 0.0, sgn * a0, sgn * a1, sgn * a2
     # outward normal of the side (away from the axis): m = -ur a + us e
     m0 = us * e0 - ur * a0
     m1 = us * e1 - ur * a1
@@ -123,8 +99,8 @@ def _revolution(p, row, x0, x1, x2):
     dd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     if ok and dd > 0.0:
         return c0, c1, c2, ok, d0 / dd, d1 / dd, d2 / dd
-    # into the closed body: the bisector of the corner's two tangent directions (along
-    # the side into the range, and along the lid towards the axis; at an apex, the axis)
+    # into the closed body: the bisector of the corner's two tangent directions (along the
+    # side into the range, and along the lid towards the axis; at an apex, the axis)
     if where == 1:
         bs = us + (1.0 if cr == 0.0 else 0.0)
         br = ur - (0.0 if cr == 0.0 else 1.0)
@@ -138,9 +114,99 @@ def _revolution(p, row, x0, x1, x2):
         bs * a2 + br * e2)
 
 
-@njit(cache=True)
-def _plate_with_hole(p, row, x0, x1, x2):
-    """:func:`closest_point` of a :class:`PlateWithHole`."""
+@njit(inline="always")
+def closest_point(kind, params, row, x0, x1, x2):
+    """Closest point ``c`` of wall ``params[row]`` to ``x``, ``ok`` and the normal ``n``.
+
+    Returns ``(c0, c1, c2, ok, n0, n1, n2)``:
+
+    * ``c``: the point of the wall closest to ``x`` (ties: any one of the closest points);
+    * ``ok``: True when ``x`` is on the acting side of the wall at ``c``, including exactly
+      on the surface (``x == c``); edges that act from every side always give True;
+    * ``n``: a unit normal of the wall at ``c`` pointing to the side on which the wall acts.
+      On a smooth face (plane, plate, cylinder or cone side, lid) it is the face normal, so
+      ``x - c = +|x - c| n`` when ``ok`` and ``-|x - c| n`` when not. On an edge (a rim, the
+      orifice's edge, a cone's apex) ``n = (x - c)/|x - c|`` (these have ``ok`` and
+      ``x != c``), except on the rim of a closed (lidded) end seen from the non-acting side,
+      where ``n`` is the bisector of the corner pointing into the body. On a segment
+      (two-sided, end caps included) ``n = +-l``, with ``l`` the segment's left normal (see
+      :class:`Segment`), the sign making ``n . (x - c) >= 0``: a centre exactly on a segment
+      gets ``n = l``; in 2D ``n`` is along ``x - c`` except at the end caps. The force uses
+      ``n`` when ``x - c`` is zero.
+
+    The whole ``(n_walls, N_PARAMS)`` table and a row index are passed rather than the row
+    itself: creating an array view per particle-wall pair inside a parallel loop costs more
+    than the geometry (see :mod:`grainflow.kernels.pair_loop`). Inlined into the compiled
+    callers (``inline="always"``: a call costs more than the geometry); the rare ends of
+    tubes and cones are a separate function. From Python, :meth:`Wall.closest_point`.
+    """
+    p = params
+    if kind == PLANE:
+        # p = [point(3), unit normal(3)]; c = x - ((x - p).n) n
+        n0 = p[row, 3]
+        n1 = p[row, 4]
+        n2 = p[row, 5]
+        h = (x0 - p[row, 0]) * n0 + (x1 - p[row, 1]) * n1 + (x2 - p[row, 2]) * n2
+        return x0 - h * n0, x1 - h * n1, x2 - h * n2, h >= 0.0, n0, n1, n2
+    if kind == SEGMENT:
+        # p = [p0(3), p1 - p0(3), 1/|p1 - p0|^2, left normal(3)];
+        # c = p0 + clamp(t, 0, 1) (p1 - p0)
+        t = ((x0 - p[row, 0]) * p[row, 3] + (x1 - p[row, 1]) * p[row, 4]
+             + (x2 - p[row, 2]) * p[row, 5]) * p[row, 6]
+        tc = min(max(t, 0.0), 1.0)
+        c0 = p[row, 0] + tc * p[row, 3]
+        c1 = p[row, 1] + tc * p[row, 4]
+        c2 = p[row, 2] + tc * p[row, 5]
+        # n = +-l, towards x (no square root: the force needs n only when x == c)
+        sgn = 1.0 if ((x0 - c0) * p[row, 7] + (x1 - c1) * p[row, 8]
+                      + (x2 - c2) * p[row, 9]) >= 0.0 else -1.0
+        return c0, c1, c2, True, sgn * p[row, 7], sgn * p[row, 8], sgn * p[row, 9]
+    if kind == CYLINDER or kind == CONE:
+        # A surface of revolution about the axis line P + s a. In the meridian half-plane
+        # (s along the axis, rho >= 0 off it) the side is the segment
+        # (s, rho) = (0, R0) + l (us, ur), l_lo <= l <= l_hi (us > 0; +-inf for an infinite
+        # tube); lids are the disks s = s_end, rho <= rho_end at finite ends.
+        # p = [P(3), unit axis a(3), R0, us, ur, l_lo, l_hi, inside, lid_lo, lid_hi,
+        #      e_perp(3)]
+        r0 = x0 - p[row, 0]
+        r1 = x1 - p[row, 1]
+        r2 = x2 - p[row, 2]
+        a0 = p[row, 3]
+        a1 = p[row, 4]
+        a2 = p[row, 5]
+        s = r0 * a0 + r1 * a1 + r2 * a2
+        q0 = r0 - s * a0
+        q1 = r1 - s * a1
+        q2 = r2 - s * a2
+        rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+        if rho > 0.0:
+            inv = 1.0 / rho
+            e0 = q0 * inv
+            e1 = q1 * inv
+            e2 = q2 * inv
+        else:
+            e0 = p[row, 14]
+            e1 = p[row, 15]
+            e2 = p[row, 16]
+        rad0 = p[row, 6]
+        us = p[row, 7]
+        ur = p[row, 8]
+        l = s * us + (rho - rad0) * ur
+        if l < p[row, 9] or l > p[row, 10] or p[row, 12] > 0.0 or p[row, 13] > 0.0:
+            return _revolution_end(p, row, x0, x1, x2, s, rho, e0, e1, e2, l)
+        cs = l * us
+        cr = rad0 + l * ur
+        # outward normal of the side (away from the axis): m = -ur a + us e
+        m0 = us * e0 - ur * a0
+        m1 = us * e1 - ur * a1
+        m2 = us * e2 - ur * a2
+        side = (rho - rad0) * us - s * ur  # > 0 outside the surface
+        c0 = p[row, 0] + cs * a0 + cr * e0
+        c1 = p[row, 1] + cs * a1 + cr * e1
+        c2 = p[row, 2] + cs * a2 + cr * e2
+        if p[row, 11] > 0.0:
+            return c0, c1, c2, side <= 0.0, -m0, -m1, -m2
+        return c0, c1, c2, side >= 0.0, m0, m1, m2
     # PLATE_WITH_HOLE: p = [centre(3), unit normal(3), hole radius, e_perp(3)]
     n0 = p[row, 3]
     n1 = p[row, 4]
@@ -175,53 +241,9 @@ def _plate_with_hole(p, row, x0, x1, x2):
 
 
 @njit(cache=True)
-def closest_point(kind, params, row, x0, x1, x2):
-    """Closest point ``c`` of wall ``params[row]`` to ``x``, ``ok`` and the normal ``n``.
-
-    Returns ``(c0, c1, c2, ok, n0, n1, n2)``:
-
-    * ``c``: the point of the wall closest to ``x`` (ties: any one of the closest points);
-    * ``ok``: True when ``x`` is on the acting side of the wall at ``c``, including exactly
-      on the surface (``x == c``); edges that act from every side always give True;
-    * ``n``: a unit normal of the wall at ``c`` pointing to the side on which the wall acts.
-      On a smooth face (plane, plate, cylinder or cone side, lid) it is the face normal, so
-      ``x - c = +|x - c| n`` when ``ok`` and ``-|x - c| n`` when not. On an edge (a rim, the
-      orifice's edge, a cone's apex) ``n = (x - c)/|x - c|`` (these have ``ok`` and
-      ``x != c``), except on the rim of a closed (lidded) end seen from the non-acting side,
-      where ``n`` is the bisector of the corner pointing into the body. On a segment
-      (two-sided, end caps included) ``n = +-l``, with ``l`` the segment's left normal (see
-      :class:`Segment`), the sign making ``n . (x - c) >= 0``: a centre exactly on a segment
-      gets ``n = l``; in 2D ``n`` is along ``x - c`` except at the end caps. The force uses
-      ``n`` when ``x - c`` is zero.
-
-    The whole ``(n_walls, N_PARAMS)`` table and a row index are passed rather than the row
-    itself: creating an array view per particle-wall pair inside a parallel loop costs more
-    than the geometry (see :mod:`grainflow.kernels.pair_loop`).
-    """
-    p = params
-    if kind == PLANE:
-        # p = [point(3), unit normal(3)]; c = x - ((x - p).n) n
-        n0 = p[row, 3]
-        n1 = p[row, 4]
-        n2 = p[row, 5]
-        h = (x0 - p[row, 0]) * n0 + (x1 - p[row, 1]) * n1 + (x2 - p[row, 2]) * n2
-        return x0 - h * n0, x1 - h * n1, x2 - h * n2, h >= 0.0, n0, n1, n2
-    if kind == SEGMENT:
-        # p = [p0(3), p1 - p0(3), 1/|p1 - p0|^2, left normal(3)];
-        # c = p0 + clamp(t, 0, 1) (p1 - p0)
-        t = ((x0 - p[row, 0]) * p[row, 3] + (x1 - p[row, 1]) * p[row, 4]
-             + (x2 - p[row, 2]) * p[row, 5]) * p[row, 6]
-        tc = min(max(t, 0.0), 1.0)
-        c0 = p[row, 0] + tc * p[row, 3]
-        c1 = p[row, 1] + tc * p[row, 4]
-        c2 = p[row, 2] + tc * p[row, 5]
-        # n = +-l, towards x (no square root: the force needs n only when x == c)
-        sgn = 1.0 if ((x0 - c0) * p[row, 7] + (x1 - c1) * p[row, 8]
-                      + (x2 - c2) * p[row, 9]) >= 0.0 else -1.0
-        return c0, c1, c2, True, sgn * p[row, 7], sgn * p[row, 8], sgn * p[row, 9]
-    if kind == CYLINDER or kind == CONE:
-        return _revolution(p, row, x0, x1, x2)
-    return _plate_with_hole(p, row, x0, x1, x2)
+def _closest_point(kind, params, row, x0, x1, x2):
+    """:func:`closest_point` compiled on its own (and cached) for :meth:`Wall.closest_point`."""
+    return closest_point(kind, params, row, x0, x1, x2)
 
 
 def _vec3(value: Sequence[float], name: str) -> tuple[float, float, float]:
@@ -292,8 +314,8 @@ class Wall:
         wall's unit normal there towards its acting side (the kernel :func:`closest_point`)."""
         shift = np.asarray(self.velocity) * time
         p = np.asarray(_vec3(x, "x")) - shift
-        c0, c1, c2, ok, n0, n1, n2 = closest_point(self.kind, self.pack()[None, :], 0,
-                                                   p[0], p[1], p[2])
+        c0, c1, c2, ok, n0, n1, n2 = _closest_point(self.kind, self.pack()[None, :], 0,
+                                                    p[0], p[1], p[2])
         return ClosestPoint(np.array([c0, c1, c2]) + shift, bool(ok), np.array([n0, n1, n2]))
 
 

@@ -1,0 +1,114 @@
+"""``[contact]`` comes from the sub-model registry: presets, named sub-models, per-pair
+laws (several interactions), walls through each pair's law, and the generated reference in
+docs/config.md."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grainflow.config.build import build_simulation
+from grainflow.config.contact import reference_markdown, write_reference
+from grainflow.config.schema import ConfigError, load_config
+from grainflow.models.registry import SUBMODELS, submodel
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "config.md"
+
+
+def _config(contact: dict, **extra) -> dict:
+    return {
+        "dim": 3, "run": {"steps": 5},
+        "box": {"lo": [0, 0, 0], "hi": [10, 10, 10]},
+        "particles": [{"fill": "list", "positions": [[1, 1, 1], [3, 1, 1]], "radius": 0.5},
+                      {"fill": "list", "positions": [[1, 5, 1], [3, 5, 1]], "radius": 0.5,
+                       "type": 1}],
+        "contact": contact, **extra}
+
+
+def test_a_named_sub_model_loads_with_units_and_builds() -> None:
+    config = load_config(_config({"model": {"normal": "hertz", "tangential": "history"},
+                                  "kn": "10 MPa", "kt": "2 kN/m", "mu": 0.4}))
+    sim = build_simulation(config)
+    (inter,) = sim.interactions
+    assert inter.law.name == "hertz/none/history/none"
+    assert inter.law.row(0, 1)["kn"] == pytest.approx(1e7)
+    assert inter.law.row(0, 1)["kt"] == pytest.approx(2e3)
+
+
+def test_a_preset_slot_can_be_replaced() -> None:
+    config = load_config(_config({"law": "soft", "model": {"tangential": "history"},
+                                  "epsilon": 10.0, "kt": 100.0, "mu": 0.3,
+                                  "kinetic_on": "tangential"}))
+    law = build_simulation(config).interactions[0].law
+    assert law.name == "harmonic/kinetic/history/none"
+    assert law.row(0, 0)["kinetic_on"] == 0.0
+
+
+def test_pairs_with_another_law_become_another_interaction_and_meet_walls_through_it() -> None:
+    config = load_config(_config(
+        {"law": "granular", "kn": 1e4, "mu": 0.5,
+         "pairs": [{"types": [1, 1], "law": "soft", "epsilon": 20.0},
+                   {"types": [1, 2], "law": "soft", "epsilon": 40.0}]},
+        walls=[{"shape": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "type": 2}],
+        run={"steps": 5, "dt": 1e-4}))
+    sim = build_simulation(config)
+    laws = {i.law.name: i for i in sim.interactions}
+    assert set(laws) == {"hooke/viscous/history/constant", "harmonic/kinetic/none/none"}
+    assert laws["harmonic/kinetic/none/none"].types == frozenset({(1, 1), (1, 2)})
+    walls = [f for f in sim.forces if type(f).__name__ == "WallForce"]
+    assert sorted((f.law.name, tuple(f.particle_types)) for f in walls) == [
+        ("harmonic/kinetic/none/none", (1,)), ("hooke/viscous/history/constant", (0,))]
+    sim.run(5)
+
+
+@pytest.mark.parametrize("contact, message", [
+    ({"law": "soft", "epsilon": 1.0, "kn": 1.0},
+     "contact.kn: not a parameter of the law harmonic/kinetic/none/none; it belongs to "
+     "hooke (normal), hertz (normal)"),
+    ({"law": "granular"}, "contact.kn: missing; the normal model 'hooke' needs it"),
+    ({"model": {"normal": "hertz"}, "kn": "1 N/m"}, "contact.kn"),
+    ({"kn": 1.0}, "contact.law: missing; choose a preset"),
+    ({"law": "granular", "kn": 1.0, "pairs": [{"types": [0, 1], "mu": -1}]},
+     "contact.pairs[0].mu: -1.0 is not valid; expected a finite value >= 0"),
+    ({"law": "granular", "kn": 1.0, "model": {"normal": "spring"}}, "contact.model.normal"),
+    ({"law": "soft", "epsilon": 1.0, "kinetic_on": "sideways"},
+     "contact.kinetic_on: 'sideways' is not valid; use one of 'full', 'tangential'"),
+])
+def test_bad_contact_tables_name_the_field(contact, message) -> None:
+    with pytest.raises(ConfigError) as info:
+        load_config(_config(contact))
+    assert any(m.startswith(message) for m in info.value.messages), info.value.messages
+
+
+def test_every_registered_parameter_is_a_config_field() -> None:
+    from grainflow.config.contact import Contact
+
+    for slot, name in SUBMODELS:
+        for p in submodel(slot, name).params:
+            assert p.name in Contact.model_fields, (slot, name, p.name)
+
+
+def test_docs_reference_is_generated_from_the_registry(tmp_path) -> None:
+    """docs/config.md holds the current generated block; regenerate it with
+    ``python -m grainflow.config.contact docs/config.md``."""
+    copy = tmp_path / "config.md"
+    copy.write_text(DOCS.read_text())
+    assert not write_reference(copy), ("docs/config.md's [contact] reference is stale; run "
+                                       "python -m grainflow.config.contact docs/config.md")
+    for slot, name in SUBMODELS:
+        assert f'`"{name}"`' in reference_markdown()
+
+
+def test_the_documented_contact_example_loads_and_builds() -> None:
+    import re
+    import tomllib
+
+    section = DOCS.read_text().split("## `[contact]`", 1)[1].split("\n## ", 1)[0]
+    (block,) = re.findall(r"```toml\n(.*?)```", section, flags=re.S)
+    contact = tomllib.loads(block)["contact"]
+    sim = build_simulation(load_config(_config(contact)))
+    names = sorted(i.law.name for i in sim.interactions)
+    assert names == ["hertz/none/history/none", "hooke/viscous/history/constant"]
+    assert np.isfinite(sim.dt)
