@@ -21,8 +21,7 @@ import numpy as np
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import PAIR
 from grainflow.kernels import neighbors as nk
-from grainflow.kernels.pair_loop import (ACTIVE, active_pairs, evaluate_pairs,
-                                         gather_pair_forces)
+from grainflow.kernels.pair_loop import ACTIVE, active_pairs, gather_pair_forces, pair_kernel
 from grainflow.models.base import ContactLaw
 
 
@@ -65,6 +64,7 @@ class PairInteraction(Force):
         self._columns_of: np.ndarray | None = None
         #: Per particle: the j-side sums the pair loop builds directly (zero between calls).
         self.col_sum = np.zeros((0, 6))
+        self._kernels: dict[tuple[bool, bool], Any] = {}
 
     def __repr__(self) -> str:
         owned = "default" if self.types is None else sorted(self.types)
@@ -124,11 +124,14 @@ class PairInteraction(Force):
         if self.col_sum.shape[0] != st.n:
             self.col_sum = np.zeros((st.n, 6))
         chunks = max(1, min(numba.get_num_threads(), st.n))
-        evaluate_pairs(self.law.evaluator, self.law.table, self.law.reach(), self.use,
-                       self.all_types, first, st.x, st.v, st.omega, st.radius, st.mass,
-                       st.type, st.frozen, nl.row_ptr, nl.nbr, nl.pair_col, nl.col_span,
-                       chunks, self.history, self.fc_pair, self.active, self.active_col,
-                       self.col_sum, g.length, g.periodic, ctx.dt, update, st.force, st.torque)
+        key = (self.all_types, first)
+        kernel = self._kernels.get(key)
+        if kernel is None:
+            kernel = self._kernels[key] = pair_kernel(self.law.evaluator, *key)
+        kernel(self.law.table, self.law.reach(), self.use, st.x, st.v, st.omega, st.radius,
+               st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr, nl.pair_col, nl.col_span,
+               chunks, self.history, self.fc_pair, self.active, self.active_col, self.col_sum,
+               g.length, g.periodic, ctx.dt, update, st.force, st.torque)
         gather_pair_forces(nl.col_ptr, nl.col_pair, nl.col_span, chunks, self.fc_pair,
                            self.active_col, self.col_sum, st.radius, st.force, st.torque)
 

@@ -66,35 +66,28 @@ def spans_chunks(first, last, starts):
     return False
 
 
-def evaluate_pairs(evaluate, params, reach, use, all_types, first, x, v, omega, radius, mass,
-                   ptype, frozen, row_ptr, nbr, pair_col, col_span, n_chunks, hist, fc_pair,
-                   active, active_col, col_sum, box_len, periodic, dt, update, force, torque):
-    """Evaluate the law ``evaluate`` for every listed pair (see :func:`_evaluate_pairs`)."""
-    pair_kernel(evaluate)(params, reach, use, all_types, first, x, v, omega, radius, mass,
-                          ptype, frozen, row_ptr, nbr, pair_col, col_span, n_chunks, hist,
-                          fc_pair, active, active_col, col_sum, box_len, periodic, dt, update,
-                          force, torque)
-
-
-def pair_kernel(evaluate):
+def pair_kernel(evaluate, all_types: bool = True, first: bool = True):
     """:func:`_evaluate_pairs` compiled for one law's evaluator, bound as a global so that
     an evaluator declared ``inline='always'`` is inlined into the loop (about 15 % of the
-    loop's time on the chute; :mod:`grainflow.kernels.specialize`)."""
+    loop's time on the chute; :mod:`grainflow.kernels.specialize`). ``all_types`` and
+    ``first`` are compile-time constants too: testing them per pair costs 3 % on the chute."""
     name = "evaluate_pairs_" + evaluate.py_func.__name__
-    return specialize(_evaluate_pairs, name, {"evaluate": evaluate}, parallel=True)
+    return specialize(_evaluate_pairs, name, {"evaluate": evaluate, "ALL_TYPES": bool(all_types),
+                                              "FIRST": bool(first)}, parallel=True)
 
 
-def _evaluate_pairs(params, reach, use, all_types, first, x, v, omega, radius, mass, ptype,
-                    frozen, row_ptr, nbr, pair_col, col_span, n_chunks, hist, fc_pair, active,
-                    active_col, col_sum, box_len, periodic, dt, update, force, torque):
+def _evaluate_pairs(params, reach, use, x, v, omega, radius, mass, ptype, frozen, row_ptr, nbr,
+                    pair_col, col_span, n_chunks, hist, fc_pair, active, active_col, col_sum,
+                    box_len, periodic, dt, update, force, torque):
     """Evaluate the law for every listed pair of its types; set or add each row's sum.
 
-    Template compiled by :func:`pair_kernel`, which binds the global ``evaluate``.
+    Template compiled by :func:`pair_kernel`, which binds the globals ``evaluate``,
+    ``ALL_TYPES`` and ``FIRST``.
 
-    Pairs whose type pair is not ``use``d (unless ``all_types``) are skipped. For every
+    Pairs whose type pair is not ``use``d (unless ``ALL_TYPES``) are skipped. For every
     other pair within ``r_i + r_j + reach`` the law is evaluated, ``fc_pair[k] = (f, c)``
     (npairs, 6) is written, ``active[k] = ACTIVE``, and the force and torque of particle
-    ``i`` (the row owner) are *set* (``first``) to ``F_i = 0 + sum_k f_k`` and
+    ``i`` (the row owner) are *set* (``FIRST``) to ``F_i = 0 + sum_k f_k`` and
     ``T_i = 0 - r_i sum_k c_k`` (exactly what zeroing and then adding gives), or else
     incremented by the same sums. Rows are processed in ``n_chunks``
     contiguous chunks, one thread each; when the column of ``j`` (rows
@@ -130,8 +123,7 @@ def _evaluate_pairs(params, reach, use, all_types, first, x, v, omega, radius, m
             c2 = 0.0
             for k in range(row_ptr[i], row_ptr[i + 1]):
                 j = nbr[k]
-                tj = ptype[j]
-                if not all_types and not use[ti, tj]:
+                if not ALL_TYPES and not use[ti, ptype[j]]:  # noqa: F821 (bound)
                     continue
                 dx = minimum_image(xi0 - x[j, 0], box_len[0], periodic[0])
                 dy = minimum_image(xi1 - x[j, 1], box_len[1], periodic[1])
@@ -159,7 +151,7 @@ def _evaluate_pairs(params, reach, use, all_types, first, x, v, omega, radius, m
                 else:
                     meff = mi * mj / (mi + mj)
                 fx, fy, fz, cx, cy, cz = evaluate(  # noqa: F821 (bound by pair_kernel)
-                    params, ti, tj, dx, dy, dz, rsq, ri, radius[j],
+                    params, ti, ptype[j], dx, dy, dz, rsq, ri, radius[j],
                     v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
                     omega[i, 0], omega[i, 1], omega[i, 2], omega[j, 0], omega[j, 1],
                     omega[j, 2], meff, hist, k, dt, update)
@@ -182,7 +174,7 @@ def _evaluate_pairs(params, reach, use, all_types, first, x, v, omega, radius, m
                 c0 += cx
                 c1 += cy
                 c2 += cz
-            if first:
+            if FIRST:  # noqa: F821 (bound by pair_kernel)
                 force[i, 0] = 0.0 + f0
                 force[i, 1] = 0.0 + f1
                 force[i, 2] = 0.0 + f2

@@ -69,6 +69,7 @@ class ContactLaw:
         self.flip = np.asarray(flip, dtype=np.float64)
         self.table = np.zeros((n_types, n_types, len(self.params)))
         self._set_types: set[tuple[int, int]] = set()
+        self._evaluator: Any = None
 
     # ------------------------------------------------------------------ description
     @property
@@ -93,7 +94,9 @@ class ContactLaw:
     @property
     def evaluator(self) -> Any:
         """The compiled pair evaluator of this composition."""
-        return composed_evaluator(self.parts, self.column_of, self._history_of)
+        if self._evaluator is None:
+            self._evaluator = composed_evaluator(self.parts, self.column_of, self._history_of)
+        return self._evaluator
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name}, n_types={self.n_types})"

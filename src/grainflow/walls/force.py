@@ -210,6 +210,7 @@ class WallForce(Force):
         self._checked: tuple[int, int] = (-1, -1)
         self._acts_on = np.ones(1, dtype=np.bool_)
         self._no_record = np.zeros((0, 6))
+        self._kernel: Any = None
 
     @property
     def n_walls(self) -> int:
@@ -263,7 +264,9 @@ class WallForce(Force):
         st = ctx.state
         self._check_types(st)
         law = self.law
-        wall_kernel(law.evaluator)(
+        if self._kernel is None:
+            self._kernel = wall_kernel(law.evaluator)
+        self._kernel(
             law.table, self.wall_type, self._acts_on, self.kinds, self.params,
             self._shift(time), self.velocity, st.x, st.v, st.omega, st.radius, st.mass,
             st.type, st.frozen, self._history(st), law.reach(), ctx.dt, update, force, torque,

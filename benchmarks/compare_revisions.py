@@ -1,0 +1,108 @@
+"""Chute speed of this working tree against an earlier revision, in one run, on one machine.
+
+Checks out ``--base`` (a git revision) into a temporary worktree and times the LAMMPS chute
+(32,000 spheres, ``--steps`` steps after 50 warm-up steps) with both source trees,
+alternating them ``--repeat`` times on 1 and 2 threads, each measurement in a fresh process
+with the threading layer fixed (``NUMBA_THREADING_LAYER``, default ``omp``). Prints the CPU,
+the median particle-steps per second of each, their ratio, and whether the two trees give
+the same kinetic energy (bitwise) after the run.
+
+Usage::
+
+    python benchmarks/compare_revisions.py --base 8afff5a [--steps 1000] [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import json
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+WORKER = r"""
+import json, sys, time
+from grainflow.scenarios.chute import chute_simulation
+sim = chute_simulation(sys.argv[1])
+steps = int(sys.argv[2])
+sim.run(50)
+t0 = time.perf_counter()
+sim.run(steps)
+wall = time.perf_counter() - t0
+print(json.dumps({"psps": sim.state.n * steps / wall, "ke": sim.state.kinetic_energy()}))
+"""
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def measure(src: Path, data: Path, steps: int, threads: int, layer: str) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(src), NUMBA_NUM_THREADS=str(threads),
+               OMP_NUM_THREADS=str(threads), NUMBA_THREADING_LAYER=layer)
+    out = subprocess.run([sys.executable, "-c", WORKER, str(data), str(steps)], env=env,
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--base", required=True, help="git revision to compare against")
+    ap.add_argument("--steps", type=int, default=1000)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--layer", default="omp", help="numba threading layer (omp, tbb, workqueue)")
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        tree = tmp / "base"
+        subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(tree),
+                        args.base], check=True, capture_output=True)
+        try:
+            data = tmp / "data.chute"  # plain text: older readers do not open .gz
+            with gzip.open(REPO / "src/grainflow/data/chute/data.chute.gz", "rb") as f:
+                data.write_bytes(f.read())
+            trees = {"base": tree / "src", "current": REPO / "src"}
+            results: dict = {"cpu": cpu_model(), "layer": args.layer, "steps": args.steps,
+                             "base": args.base}
+            for threads in (1, 2):
+                runs: dict[str, list[dict]] = {k: [] for k in trees}
+                for _ in range(args.repeat):
+                    for name, src in trees.items():
+                        runs[name].append(measure(src, data, args.steps, threads, args.layer))
+                med = {k: statistics.median(r["psps"] for r in v) for k, v in runs.items()}
+                results[f"{threads}_threads"] = {
+                    "base_psps": med["base"], "current_psps": med["current"],
+                    "ratio": med["current"] / med["base"],
+                    "same_ke": runs["base"][0]["ke"] == runs["current"][0]["ke"],
+                    "all": {k: [r["psps"] for r in v] for k, v in runs.items()}}
+        finally:
+            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(tree)],
+                           capture_output=True)
+            shutil.rmtree(tree, ignore_errors=True)
+    print(f"chute, {args.steps} steps, {results['cpu']}, threading layer {args.layer}, "
+          f"median of {args.repeat}")
+    for threads in (1, 2):
+        r = results[f"{threads}_threads"]
+        print(f"{threads} thread(s): {args.base} {r['base_psps'] / 1e6:.2f} M, current "
+              f"{r['current_psps'] / 1e6:.2f} M particle-steps/s, ratio {r['ratio']:.3f}, "
+              f"same kinetic energy: {r['same_ke']}")
+    print(json.dumps(results))
+    return results
+
+
+if __name__ == "__main__":
+    main()
