@@ -76,8 +76,26 @@ print(time.perf_counter() - t0)
 """
 
 
+#: numba's threading layer for every measurement (``--layer``): chosen here, never left to
+#: whatever libraries happen to be installed (Debian's lammps brings libtbb, which numba
+#: would otherwise pick).
+LAYER = "omp"
+
+
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``), else what platform reports."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
 def run_grainflow(data: Path, steps: int, threads: int, size: str = "1x1") -> dict:
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
+               NUMBA_THREADING_LAYER=LAYER)
     out = subprocess.run([sys.executable, "-c", WORKER, str(data), str(steps), size],
                          capture_output=True, text=True, env=env, check=True)
     res = json.loads(out.stdout.strip().splitlines()[-1])
@@ -141,6 +159,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--peers", type=Path, default=None,
                     help="folder with in.chute and data.chute[.gz] (default: the copies "
                          "shipped in grainflow/data/chute)")
+    ap.add_argument("--layer", default="omp", help="numba threading layer (omp, tbb, workqueue)")
     ap.add_argument("--skip-lammps", action="store_true")
     ap.add_argument("--skip-scaling", action="store_true")
     args = ap.parse_args(argv)
@@ -150,8 +169,10 @@ def main(argv: list[str] | None = None) -> dict:
             ap.error(f"--peers: {path} not found (the folder needs in.chute and "
                      "data.chute or data.chute.gz)")
 
-    results: dict = {"date": time.strftime("%Y-%m-%d"), "machine": platform.processor()
-                     or platform.machine(), "cores": os.cpu_count(), "steps": args.steps}
+    global LAYER
+    LAYER = args.layer
+    results: dict = {"date": time.strftime("%Y-%m-%d"), "machine": cpu_model(),
+                     "cores": os.cpu_count(), "steps": args.steps, "threading_layer": LAYER}
     results["startup_s"] = startup_seconds()
     g1 = run_grainflow(data, args.steps, 1)
     g2 = run_grainflow(data, args.steps, 2)
@@ -176,7 +197,8 @@ def main(argv: list[str] | None = None) -> dict:
         scaling["spread"] = max(costs) / min(costs) - 1.0
         results["scaling_2_threads"] = scaling
 
-    print(f"chute benchmark, {args.steps} steps, {results['machine']} ({results['cores']} cores)")
+    print(f"chute benchmark, {args.steps} steps, {results['machine']} ({results['cores']} cores), "
+          f"numba threading layer {LAYER}")
     print(f"{'code':<14}{'workers':>8}{'M particle-steps/s':>22}{'ratio':>8}")
     for code, key in (("grainflow", "grainflow"), ("LAMMPS", "lammps")):
         for w in (1, 2):

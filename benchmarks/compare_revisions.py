@@ -18,13 +18,14 @@ import argparse
 import gzip
 import json
 import os
-import platform
 import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from chute import cpu_model  # benchmarks/chute.py, beside this script
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -39,16 +40,6 @@ sim.run(steps)
 wall = time.perf_counter() - t0
 print(json.dumps({"psps": sim.state.n * steps / wall, "ke": sim.state.kinetic_energy()}))
 """
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def measure(src: Path, data: Path, steps: int, threads: int, layer: str) -> dict:
