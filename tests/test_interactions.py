@@ -30,18 +30,23 @@ def _three_pairs() -> ParticleState:
     return st
 
 
-def test_each_type_pair_uses_its_own_law() -> None:
-    st = _three_pairs()
+def _laws() -> tuple[GranularLaw, SoftLaw]:
     granular = GranularLaw(2)
     granular.set_all(kn=1e3)
     soft = SoftLaw(2)
     soft.set_all(epsilon=50.0)
+    return granular, soft
+
+
+def test_each_type_pair_uses_its_own_law() -> None:
+    st = _three_pairs()
+    granular, soft = _laws()
     sim = Simulation(st, 1e-4)
     sim.add_interaction(granular, types=[(0, 0), (0, 1)])
     sim.add_interaction(soft, types=[(1, 1)])
     sim.compute_forces(update=False)
     assert st.force[0, 0] == pytest.approx(-1e3 * 0.1)  # Hooke: kn overlap
-    assert st.force[2, 0] == pytest.approx(-50.0 / 1.0 * (1 - 0.9))  # harmonic: eps/sigma (1-r/sigma)
+    assert st.force[2, 0] == pytest.approx(-50.0 * (1 - 0.9))  # eps/sigma (1 - r/sigma), sigma 1
     assert st.force[4, 0] == pytest.approx(-1e3 * 0.1)
     np.testing.assert_allclose(st.force.sum(axis=0), 0.0, atol=1e-12)
     kinds = sim.contacts()
@@ -50,10 +55,7 @@ def test_each_type_pair_uses_its_own_law() -> None:
 
 def test_a_default_interaction_takes_the_unclaimed_pairs() -> None:
     st = _three_pairs()
-    granular = GranularLaw(2)
-    granular.set_all(kn=1e3)
-    soft = SoftLaw(2)
-    soft.set_all(epsilon=50.0)
+    granular, soft = _laws()
     sim = Simulation(st, 1e-4, granular)  # default
     sim.add_interaction(soft, types=[(1, 1)])
     sim.compute_forces(update=False)
