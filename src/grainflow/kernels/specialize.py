@@ -40,7 +40,7 @@ def _callees(fn: Any, namespace: dict[str, Any], seen: set[int]) -> list[Any]:
     """Every compiled function that ``fn`` (a Python function) names among ``namespace``,
     and theirs, recursively."""
     out = []
-    for name in getattr(fn, "__code__", None).co_names if hasattr(fn, "__code__") else ():
+    for name in fn.__code__.co_names:
         obj = namespace.get(name)
         inner = getattr(obj, "py_func", None)
         if inner is None or id(obj) in seen:
