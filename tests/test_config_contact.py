@@ -112,3 +112,10 @@ def test_the_documented_contact_example_loads_and_builds() -> None:
     names = sorted(i.law.name for i in sim.interactions)
     assert names == ["hertz/none/history/none", "hooke/viscous/history/constant"]
     assert np.isfinite(sim.dt)
+
+
+def test_the_old_soft_friction_key_points_to_its_new_name() -> None:
+    with pytest.raises(ConfigError, match=r"contact.mu: not a parameter of the law "
+                                          r"harmonic/kinetic/none/none; it belongs to history "
+                                          r"\(tangential\); did you mean 'mu_k'\?"):
+        load_config(_config({"law": "soft", "epsilon": 1.0, "mu": 0.5}))

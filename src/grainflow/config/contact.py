@@ -17,6 +17,7 @@ interaction of the simulation.
 
 from __future__ import annotations
 
+import difflib
 import sys
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -156,8 +157,12 @@ def _checked(models: dict[str, str], given: dict[str, Any], where: str) -> dict[
         p = _slot_param(models, name)
         if p is None:
             owners = ", ".join(f"{m} ({s})" for s, m, _ in _all_params()[name])
+            own = [q.name for s in SLOTS for q in submodel(s, models[s]).params]
+            close = difflib.get_close_matches(name, own, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
             raise ValueError(f"{where}{name}: not a parameter of the law "
-                             f"{'/'.join(models[s] for s in SLOTS)}; it belongs to {owners}")
+                             f"{'/'.join(models[s] for s in SLOTS)}; it belongs to "
+                             f"{owners}{hint}")
         try:
             if p.choices is not None:
                 p.check(value)
