@@ -1,5 +1,11 @@
-"""Validation (slow, ``-m validation``, about 18 minutes on 2 cores): short real 2D Q(w)
+"""Validation (slow, ``-m validation``, about 15 minutes on 2 cores): short real 2D Q(w)
 series and their Beverloo exponents against seed 003 (issue tolerance +/- 0.15 in 2D).
+
+The drag-limit series run 800 t0: the drag-limited pile settles only after about 300 t0
+(MSER cuts at 250-400 t0), so a 500 t0 record leaves ~150 t0 of steady flow and its beta
+depends on the realization: two runs that differ only by floating-point rounding (the same
+model before and after the engine's sub-model refactor) gave 0.51 and 0.87 +/- 0.16 at
+500 t0, and 0.62 +/- 0.06 (bulk rule) / 0.51 +/- 0.04 (column rule) at 800 t0.
 
 - drag limit (lambda -> inf): beta = d - 3/2 = 1/2;
 - friction limit (lambda -> 0): beta = d - 1/2 = 3/2. Known discrepancy: we measure beta near
@@ -11,6 +17,7 @@ series and their Beverloo exponents against seed 003 (issue tolerance +/- 0.15 i
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -35,13 +42,18 @@ def _flow_rate(w: float, duration: float, dt_scale: float = 1.0, **section) -> t
     return flow.flow_rate, flow.flow_rate_err
 
 
+@functools.cache
 def _beverloo(duration: float, **section) -> BeverlooFit:
     rates = [_flow_rate(w, duration, **section) for w in WIDTHS]
     return fit_beverloo(WIDTHS, [q for q, _ in rates], Q_err=[e for _, e in rates])
 
 
+#: Flow time of the drag-limit series (module docstring).
+DRAG_LIMIT_T = 800.0
+
+
 def test_beverloo_exponent_drag_limit_2d() -> None:
-    fit = _beverloo(500.0)
+    fit = _beverloo(DRAG_LIMIT_T)
     assert abs(fit.beta - 0.5) <= 0.15, fit
 
 
@@ -59,7 +71,7 @@ def test_halving_dt_keeps_flow_rate() -> None:
 
 
 def test_reinsertion_rule_does_not_change_beta() -> None:
-    bulk = _beverloo(500.0, reinsert_bulk_contacts=3)
-    column = _beverloo(500.0, reinsert_bulk_contacts=0)
+    bulk = _beverloo(DRAG_LIMIT_T)  # the default rule: d + 1 = 3 bulk contacts
+    column = _beverloo(DRAG_LIMIT_T, reinsert_bulk_contacts=0)
     assert abs(bulk.beta - column.beta) <= 2.0 * np.hypot(bulk.beta_err, column.beta_err), (
         bulk, column)
