@@ -37,6 +37,13 @@ class ListGeometry:
         periodic[:d] = state.box.periodic
         return cls(lo, length, periodic)
 
+    def branch(self, xi: np.ndarray, xj: np.ndarray) -> np.ndarray:
+        """Branch vectors ``xi - xj`` (M, 3), folded to the minimum image on periodic axes."""
+        d = xi - xj
+        for a in np.nonzero(self.periodic)[0]:
+            d[:, a] -= self.length[a] * np.rint(d[:, a] / self.length[a])
+        return d
+
 
 class NeighborList:
     """Half Verlet list built from sparse (hashed) cells.

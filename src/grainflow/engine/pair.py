@@ -139,11 +139,7 @@ class PairInteraction(Force):
         """Interacting pairs at the last evaluation: force on i, branch x_i - x_j."""
         nl = ctx.neighbors
         pi, pj, slot = active_pairs(nl.row_ptr, nl.nbr, self.fc_pair, self.active)
-        x = ctx.state.x
-        g = ctx.geometry
-        branch = x[pi] - x[pj]
-        for a in np.nonzero(g.periodic)[0]:
-            branch[:, a] -= g.length[a] * np.rint(branch[:, a] / g.length[a])
+        branch = ctx.geometry.branch(ctx.state.x[pi], ctx.state.x[pj])
         return [ContactRows(pi, pj, PAIR, self.fc_pair[slot, :3].copy(), branch)]
 
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:

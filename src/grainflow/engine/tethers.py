@@ -171,7 +171,7 @@ class Tethers(Force):
             full[:, : a.shape[1]] = a
             self.anchor = full
         pairs = _indices_of(st, self.bond_ids.ravel(), "bonds").reshape(-1, 2)
-        self.l0 = np.linalg.norm(_branch(st.x[pairs[:, 0]], st.x[pairs[:, 1]], ctx), axis=1)
+        self.l0 = np.linalg.norm(ctx.geometry.branch(st.x[pairs[:, 0]], st.x[pairs[:, 1]]), axis=1)
         if np.any(self.l0 == 0.0):
             raise ValueError("bonds: a bonded pair sits at one point; bond distinct particles")
         body = st.body[idx]
@@ -206,14 +206,14 @@ class Tethers(Force):
         self._refresh_indices(st)
         a = self._idx[self._idx >= 0]
         anchor = self.anchor[self._idx >= 0]
-        d = _branch(st.x[a], anchor, ctx)
+        d = ctx.geometry.branch(st.x[a], anchor)
         f = -self.k * d - self.eta * st.v[a]
         f[st.frozen[a]] = 0.0
         rows = [ContactRows(a, np.full(a.size, -1), ANCHOR, f, d)]
         pairs = self._pairs[np.all(self._pairs >= 0, axis=1)]
         if pairs.size:
             i, j = pairs[:, 0], pairs[:, 1]
-            d = _branch(st.x[i], st.x[j], ctx)
+            d = ctx.geometry.branch(st.x[i], st.x[j])
             r = np.linalg.norm(d, axis=1)
             n = d / r[:, None]
             vn = np.einsum("ij,ij->i", st.v[i] - st.v[j], n)
@@ -255,12 +255,3 @@ class Tethers(Force):
         self.bond_ids = np.asarray(data["bond_ids"], dtype=np.int64).reshape(-1, 2)
         self.l0 = np.asarray(data["l0"], dtype=np.float64)
         self._generation = -1
-
-
-def _branch(xi: np.ndarray, xj: np.ndarray, ctx: ForceContext) -> np.ndarray:
-    """``xi - xj`` with the minimum image on periodic axes."""
-    d = xi - xj
-    g = ctx.geometry
-    for a in np.nonzero(g.periodic)[0]:
-        d[:, a] -= g.length[a] * np.rint(d[:, a] / g.length[a])
-    return d
