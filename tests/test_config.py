@@ -70,6 +70,7 @@ def test_generic_examples_build() -> None:
 def test_units_are_converted() -> None:
     data = merged('[run]\ndt = "10 us"\n[contact]\ncontact_time = "1 ms"\n')
     data["particles"][0]["radius"] = "200 um"
+    data["particles"][0]["positions"] = [["1 mm", "1 mm", "1 mm"], ["3 mm", "1 mm", "1 mm"]]
     data["particles"][0]["density"] = "2.5 g/cm^3"
     data["box"]["hi"] = ["1 cm", "1 cm", "1 cm"]
     config = load_config(data)

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from grainflow.frame import ANCHOR, BOND, CONTACT_KINDS, PAIR, WALL, Box, Contacts, Frame
-from grainflow.io.h5md import TrajectoryWriter, count_frames, read_frame, read_frames
+from grainflow.io.h5md import (DEFAULT_MAX_ROWS, TrajectoryWriter, count_frames, read_frame,
+                               read_frames)
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "output_format.md"
 
@@ -209,7 +210,7 @@ def test_round_trip_of_every_contact_kind(tmp_path, dim, compression):
         kind = f["observables/contacts/kind/value"]
         force = f["observables/contacts/force/value"]
         assert kind.dtype == np.int8 and kind.shape == (3, 6) and kind.fillvalue == -1
-        assert kind.chunks == (1, 4096) and kind.maxshape == (None, None)
+        assert kind.chunks == (1, 4096) and kind.maxshape == (None, DEFAULT_MAX_ROWS)
         assert (kind.compression, kind.shuffle) == (force.compression, force.shuffle)
         assert list(kind[1]) == [WALL, WALL, BOND, ANCHOR, -1, -1]
         assert f["observables/contacts/kind/step"] == f["particles/all/position/step"]

@@ -51,7 +51,7 @@ COLLIDE: dict[str, Any] = {
     "output": {"thermo_every": 1, "frames_every": 1, "checkpoint_every": 2},
     "box": {"lo": [0, 0], "hi": [10, 10]},
     "particles": [{"fill": "list", "positions": [[1, 5], [4, 5]],
-                   "velocities": [[1, 0], [-1, 0]], "radius": 0.5}],
+                   "velocities": [[0.8, 0], [-0.8, 0]], "radius": 0.5}],
     "contact": {"law": "granular", "restitution": 0.9, "contact_time": 0.1},
 }
 
@@ -349,14 +349,15 @@ def test_an_unstable_run_stops_naming_step_and_particle(tmp_path: Path) -> None:
         with pytest.raises(RunUnstable) as info:
             run_config(COLLIDE, rundir, progress="none")
     message = str(info.value)
-    assert "unstable at step 4, particle id" in message
+    assert "unstable at step 5, particle id" in message
+    assert "radii per step" in message
     assert "dt = 0.3" in message and "oscillation time" in message
-    assert "last healthy checkpoint: step 2" in message
-    assert checkpoint_step(rundir / CHECKPOINT) == 2
-    assert checkpoint_step(rundir / UNSTABLE) == 4
+    assert "last healthy checkpoint: step 4" in message
+    assert checkpoint_step(rundir / CHECKPOINT) == 4
+    assert checkpoint_step(rundir / UNSTABLE) == 5
     summary = json.loads((rundir / SUMMARY).read_text())
-    assert summary["status"] == "unstable" and summary["step"] == 4
-    assert len(list(read_frames(rundir / FRAMES))) == 4  # steps 0-3; frames stay readable
+    assert summary["status"] == "unstable" and summary["step"] == 5
+    assert len(list(read_frames(rundir / FRAMES))) == 5  # steps 0-4; frames stay readable
 
 
 def test_particles_placed_overlapping_fail_at_step_zero(tmp_path: Path) -> None:

@@ -3,7 +3,8 @@
 Exit codes: 0 success; 1 the run failed (unstable, or an unexpected error); 2 bad input
 (invalid config or value, unusable run directory, bad option); 128 + signal number when
 SIGINT (130) or SIGTERM (143) stopped a run after writing its checkpoint. Failures print one line,
-``error: <reason>``, on stderr (``--debug`` shows the traceback instead).
+``error: <reason>``, on stderr (an invalid configuration: one line per problem; ``--debug``
+shows the traceback instead); warnings print one line each, ``warning: <message>``.
 
 Heavy modules (numba, h5py, matplotlib) are imported inside the verbs, so ``--help`` and
 ``--version`` answer at once.
@@ -12,6 +13,8 @@ Heavy modules (numba, h5py, matplotlib) are imported inside the verbs, so ``--he
 from __future__ import annotations
 
 import importlib.util
+import sys
+import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -50,6 +53,8 @@ def main(
 ) -> None:
     """DEM simulation of granular flows."""
     _state["debug"] = debug
+    if not debug:
+        warnings.showwarning = _one_line_warning
     with _errors():
         _set_threads(threads)
 
@@ -71,7 +76,8 @@ def run(
     rundir = output if output is not None else Path.cwd() / config.stem
     with _errors():
         _set_threads(threads)
-        summary = run_config(config, rundir, overwrite=overwrite, progress=progress)
+        summary = run_config(config, rundir, overwrite=overwrite, progress=progress,
+                             log=lambda line: typer.echo(line, err=True))
     typer.echo(f"finished: {summary.step} steps, N = {summary.n_particles}, "
                f"{summary.wall_time_s:.1f} s, {summary.particle_steps_per_s:.3g} "
                f"particle-steps/s -> {rundir}")
@@ -196,12 +202,20 @@ def _errors() -> Iterator[None]:
         code = getattr(err, "exit_code", None)
         if isinstance(err, (ValueError, FileNotFoundError)):  # bad input: ConfigError, UsageError
             code = 2
-        message = " ".join(str(err).split()) or type(err).__name__
-        typer.echo(f"error: {message}", err=True)
+        for line in getattr(err, "messages", None) or [str(err)]:
+            message = " ".join(str(line).split()) or type(err).__name__
+            typer.echo(f"error: {message}", err=True)
         raise typer.Exit(code if code is not None else 1) from None
     except KeyboardInterrupt:
         typer.echo("error: interrupted", err=True)
         raise typer.Exit(130) from None
+
+
+def _one_line_warning(message: Warning | str, category: type[Warning], filename: str,
+                      lineno: int, file: Any = None, line: str | None = None) -> None:
+    """``warning: <message>`` on one line (not Python's file, line and source form)."""
+    text = " ".join(str(message).split())
+    print(f"warning: {text}", file=file if file is not None else sys.stderr)
 
 
 def _set_threads(threads: int | None) -> None:
@@ -230,13 +244,20 @@ def _benchmark_main() -> Callable[[list[str]], Any]:
 def export_frames(rundir: Path, format: str, output: Path | None) -> tuple[Path, int]:
     """Write the frames of ``rundir/frames.h5`` as a LAMMPS dump or a VTK series."""
     from grainflow.io.h5md import read_frames
-    from grainflow.runner import FRAMES
+    from grainflow.runner import FRAMES, read_manifest, record_outputs
 
     if format not in ("dump", "vtk"):
         raise UsageError(f"--format: {format!r} is not valid; use dump or vtk")
     source = rundir / FRAMES
     if not source.is_file():
         raise UsageError(f"{rundir}: no {FRAMES} (was output.frames_every = 0?)")
+    if output is None:
+        # the default target in the run directory: only ever replace our own export
+        name = "frames.dump" if format == "dump" else "vtk"
+        if (rundir / name).exists() and name not in read_manifest(rundir):
+            raise UsageError(f"{rundir / name} exists and was not written by grainflow; move "
+                             "it away or give --output")
+        record_outputs(rundir, [name])
     count = 0
     if format == "dump":
         from grainflow.io.lammps_dump import write_lammps_dump
@@ -282,9 +303,23 @@ def _describe(rundir: Path, runner: Any) -> list[tuple[str, str]]:
             lines.append(("message", summary["message"]))
     else:
         lines.append(("status", "running, or stopped without a summary (killed?)"))
-    step = runner.checkpoint_step(rundir / runner.CHECKPOINT)
-    lines.append(("checkpoint", "none" if step is None else
-                  f"step {step} (resume with: grainflow resume {rundir})"))
+    try:
+        step = runner.checkpoint_step(rundir / runner.CHECKPOINT)
+    except runner.RunDirError as err:
+        lines.append(("checkpoint", str(err)))
+    else:
+        if step is None:
+            lines.append(("checkpoint", "none"))
+        elif summary is not None and summary["status"] == "unstable":
+            lines.append(("checkpoint", f"step {step}, the last healthy state; the run is "
+                                        "unstable: resuming would repeat the failure. Fix "
+                                        "the configuration and run it again with "
+                                        "--overwrite"))
+        elif summary is not None and summary["status"] == "finished":
+            lines.append(("checkpoint", f"step {step} (the run is complete)"))
+        else:
+            lines.append(("checkpoint", f"step {step} (resume with: grainflow resume "
+                                        f"{rundir})"))
     if (rundir / runner.FRAMES).is_file():
         from grainflow.io.h5md import count_frames
 

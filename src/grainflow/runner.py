@@ -9,22 +9,29 @@ Run directory (see ``docs/config.md``)::
     unstable_state.npz  the state where a run went unstable (diagnosis only)
     final.png           snapshot of the final state, coloured by speed
     summary.json        status, steps, N, wall time, particle-steps/s, message
+    .grainflow-manifest every file grainflow wrote here (with the config's checksum)
 
 A run that is killed loses only the steps since its last checkpoint: :func:`resume_run`
 rebuilds the simulation from ``config.toml``, loads ``checkpoint.npz``, trims ``thermo.csv``
 and ``frames.h5`` back to the checkpoint's step and continues; the final state is bitwise
 the one of an uninterrupted run. SIGINT and SIGTERM write a checkpoint before the run stops.
+
+Nothing of the user's is deleted or replaced: ``overwrite`` removes only the files the
+manifest lists, and refuses when a file grainflow would write is not its own (or the config
+it wrote was edited since). A run that goes unstable stops before anything non-finite is
+written, keeps its last healthy checkpoint, and is not resumed (it would fail again).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
 import signal
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -40,9 +47,11 @@ from grainflow.engine.simulation import InstabilityError, Simulation
 from grainflow.io.thermo import THERMO_COLUMNS, ThermoLog
 from grainflow.progress import Progress, make_progress
 
+Log = Callable[[str], None]
+
 __all__ = ["CHECKPOINT_VERSION", "RunDirError", "RunError", "RunInterrupted", "RunSummary",
-           "RunUnstable", "checkpoint_step", "read_checkpoint", "read_summary", "resume_run",
-           "run_config", "set_threads", "write_checkpoint"]
+           "RunUnstable", "checkpoint_step", "read_checkpoint", "read_manifest",
+           "read_summary", "record_outputs", "resume_run", "run_config", "set_threads", "write_checkpoint"]
 
 #: Layout version of checkpoint files; a resume refuses other versions.
 CHECKPOINT_VERSION = 2
@@ -54,9 +63,10 @@ CHECKPOINT = "checkpoint.npz"
 UNSTABLE = "unstable_state.npz"
 SNAPSHOT = "final.png"
 SUMMARY = "summary.json"
-#: Everything a run writes (what ``overwrite`` removes; nothing else is touched).
-OUTPUTS = (CONFIG, THERMO, FRAMES, CHECKPOINT, UNSTABLE, SNAPSHOT, SUMMARY, "checkpoint.tmp",
-           FRAMES + ".recover", "frames.dump", "vtk")
+MANIFEST = ".grainflow-manifest"
+#: Temporary names only grainflow uses (removed by ``overwrite`` wherever they come from).
+TEMPORARY = ("checkpoint.tmp", CONFIG + ".tmp", SUMMARY + ".tmp", MANIFEST + ".tmp",
+             FRAMES + ".recover", FRAMES + ".repair", THERMO + ".tmp", "final.tmp.png")
 
 
 class RunError(RuntimeError):
@@ -106,25 +116,32 @@ class RunSummary:
 def run_config(config: RunConfig | Mapping[str, Any] | str | os.PathLike[str],
                rundir: str | os.PathLike[str], *, overwrite: bool = False,
                resume: bool = False, threads: int | None = None,
-               progress: str | Progress | None = None) -> RunSummary:
+               progress: str | Progress | None = None, log: Log | None = None) -> RunSummary:
     """Run a configuration (RunConfig, dict or TOML path) into ``rundir``.
 
-    An existing non-empty ``rundir`` is refused unless ``overwrite`` (grainflow's outputs
-    in it are deleted first) or ``resume`` (continue from its checkpoint if it has one).
-    ``threads`` sets numba's thread count; ``progress`` is ``"auto"`` (default), ``"rich"``,
-    ``"plain"``, ``"none"`` or a :class:`~grainflow.progress.Progress`.
-    Raises :class:`~grainflow.config.schema.ConfigError`, :class:`RunDirError`,
-    :class:`RunInterrupted` or :class:`RunUnstable`.
+    An existing non-empty ``rundir`` is refused unless ``overwrite`` (the outputs grainflow
+    wrote there are deleted first, nothing else; ``log`` is told which) or ``resume``
+    (continue from its checkpoint if it has one). ``threads`` sets numba's thread count;
+    ``progress`` is ``"auto"`` (default), ``"rich"``, ``"plain"``, ``"none"`` or a
+    :class:`~grainflow.progress.Progress`. Everything is validated before the run
+    directory is touched. Raises :class:`~grainflow.config.schema.ConfigError`,
+    :class:`RunDirError`, :class:`RunInterrupted` or :class:`RunUnstable`.
     """
     rundir = Path(rundir)
     if resume and (rundir / CHECKPOINT).is_file():
         return resume_run(rundir, threads=threads, progress=progress)
     cfg = config if isinstance(config, RunConfig) else load_config(config)
-    _prepare_rundir(rundir, overwrite)
+    display = _progress(progress, cfg)
     set_threads(threads)
+    outputs = _outputs_of(cfg)
+    removed = _prepare_rundir(rundir, overwrite, outputs)
+    if removed and log is not None:
+        log(f"removed the previous run's outputs from {rundir}: {', '.join(removed)}")
     sim = build_simulation(cfg)
-    _atomic_write_text(rundir / CONFIG, tomli_w.dumps(resolved_dict(cfg)))
-    return _Run(cfg, sim, rundir, _progress(progress, cfg)).execute(fresh=True)
+    text = tomli_w.dumps(resolved_dict(cfg))
+    record_outputs(rundir, outputs, config_text=text)
+    _atomic_write_text(rundir / CONFIG, text)
+    return _Run(cfg, sim, rundir, display).execute(fresh=True)
 
 
 def resume_run(rundir: str | os.PathLike[str], *, threads: int | None = None,
@@ -135,6 +152,12 @@ def resume_run(rundir: str | os.PathLike[str], *, threads: int | None = None,
         if not (rundir / name).is_file():
             raise RunDirError(f"{rundir}: no {name}; is it a grainflow run directory "
                               "(written by 'grainflow run')?")
+    summary = read_summary(rundir)
+    if summary is not None and summary.get("status") == "unstable":
+        raise RunDirError(f"{rundir}: the run went unstable ({summary.get('message')}); "
+                          "resuming from its last healthy checkpoint would repeat the "
+                          f"failure. Fix the configuration and start again: grainflow run "
+                          f"CONFIG -o {rundir} --overwrite")
     cfg = load_config(rundir / CONFIG)
     set_threads(threads)
     saved = read_checkpoint(rundir / CHECKPOINT)
@@ -204,19 +227,13 @@ class _Run:
         resume_step = None if fresh else sim.step
         self.start = (time.perf_counter(), sim.particle_steps)
         thermo = ThermoLog(self.rundir / THERMO, resume_step)
-        frames = None
-        if out.frames_every:
-            from grainflow.io.h5md import TrajectoryWriter
-
-            frames = TrajectoryWriter(
-                self.rundir / FRAMES, sim.state.dim, sim.state.box, contacts=out.contacts,
-                compression=None if out.compression == "none" else out.compression,
-                append=not fresh, resume_step=resume_step)
+        frames = self._frames(resume_step) if out.frames_every else None
         stop = _StopRequest()
         try:
             with stop.installed():
                 if fresh:
                     sim.compute_forces(update=False)
+                    sim.check_health()  # nothing broken is written, not even step 0
                     thermo(sim.observer_context)
                     if frames is not None:
                         frames.append(sim.frame(contacts=out.contacts))
@@ -228,13 +245,21 @@ class _Run:
                     sim.add_observer(lambda s: frames.append(s.frame(contacts=out.contacts)),
                                      out.frames_every)
                 sim.add_observer(lambda s: self.progress.update(s.step, s.state.n,
-                                                                self.rate()), 10)
+                                                                self.rate()), 10,
+                                 checked=False)
                 if out.checkpoint_every:
                     sim.add_observer(lambda _: self.checkpoint(sim), out.checkpoint_every)
                 self.progress.start(self.total, sim.step)
                 sim.run(max(0, self.total - sim.step), until=lambda s: stop.signum is not None)
                 if self.checkpoint_step != sim.step:
                     self.checkpoint(sim)
+                interrupted = stop.signum if sim.step < self.total else None
+                if interrupted is None:
+                    # complete from here on: a signal while the snapshot is drawn is ignored
+                    summary = self._summary("finished", "")
+                    summary.write(self.rundir)
+                    if out.snapshot:
+                        self._snapshot()
         except InstabilityError as err:
             self._unstable(err)
         finally:
@@ -242,17 +267,35 @@ class _Run:
             thermo.close()
             if frames is not None:
                 frames.close()
-        if stop.signum is not None:
-            name = signal.Signals(stop.signum).name
+        if interrupted is not None:
+            name = signal.Signals(interrupted).name
             message = (f"stopped by {name} at step {sim.step}; checkpoint written, continue "
                        f"with: grainflow resume {self.rundir}")
             self._summary("interrupted", message).write(self.rundir)
-            raise RunInterrupted(message, stop.signum)
-        if out.snapshot:
-            self._snapshot()
-        summary = self._summary("finished", "")
-        summary.write(self.rundir)
+            raise RunInterrupted(message, interrupted)
         return summary
+
+    def _frames(self, resume_step: int | None) -> Any:
+        """The trajectory writer; on resume a damaged ``frames.h5`` is first repaired to its
+        last whole frame up to the checkpoint (the original kept as ``frames.h5.damaged``)."""
+        from grainflow.io.h5md import (DamagedFileError, TrajectoryWriter, max_rows_for,
+                                       repair_frames)
+
+        sim, out = self.sim, self.config.output
+
+        def writer() -> TrajectoryWriter:
+            return TrajectoryWriter(
+                self.rundir / FRAMES, sim.state.dim, sim.state.box, contacts=out.contacts,
+                compression=None if out.compression == "none" else out.compression,
+                append=resume_step is not None, resume_step=resume_step,
+                max_rows=max_rows_for(sim.state.n))
+        try:
+            return writer()
+        except DamagedFileError:
+            if resume_step is None:
+                raise
+            repair_frames(self.rundir / FRAMES, resume_step)  # warns: what was kept
+            return writer()
 
     def elapsed(self) -> float:
         """Wall-clock seconds of the whole run so far (all segments)."""
@@ -265,6 +308,7 @@ class _Run:
 
     def _unstable(self, err: InstabilityError) -> None:
         sim = self.sim
+        record_outputs(self.rundir, [UNSTABLE])
         write_checkpoint(self.rundir / UNSTABLE, {"sim": sim.state_dict(),
                                                   "runner": self.state_dict()})
         kept = (f"last healthy checkpoint: step {self.checkpoint_step} ({CHECKPOINT})"
@@ -284,8 +328,9 @@ class _Run:
         from grainflow.plotting.snapshot import snapshot
 
         plane = self.config.output.snapshot_plane
-        snapshot(self.sim.frame(), self.rundir / SNAPSHOT, plane=plane,
-                 walls=wall_lines(self.sim, plane))
+        tmp = self.rundir / "final.tmp.png"
+        snapshot(self.sim.frame(), tmp, plane=plane, walls=wall_lines(self.sim, plane))
+        os.replace(tmp, self.rundir / SNAPSHOT)
 
 
 def wall_lines(sim: Simulation, plane: str = "xz") -> list[tuple[tuple[float, float], ...]]:
@@ -392,8 +437,8 @@ def read_checkpoint(path: Path) -> dict[str, Any]:
             for key in z.files:
                 if key != "__plain__":
                     _set(data, key, z[key])
-    except (OSError, ValueError, KeyError) as err:
-        raise RunDirError(f"{path}: not a readable checkpoint ({err})") from None
+    except Exception as err:  # zip, npy, JSON and I/O errors alike: the file is damaged
+        raise RunDirError(_damaged_checkpoint(path, err)) from None
     for key, value in plain.items():
         _set(data, key, value)
     return data
@@ -430,20 +475,92 @@ def _fsync_dir(path: Path) -> None:
 
 
 # ------------------------------------------------------------------------ run directory
-def _prepare_rundir(rundir: Path, overwrite: bool) -> None:
+def _outputs_of(config: RunConfig) -> list[str]:
+    """The files a run of ``config`` writes (besides the unstable state, if it fails)."""
+    out = config.output
+    names = [CONFIG, THERMO, CHECKPOINT, SUMMARY]
+    if out.frames_every:
+        names.append(FRAMES)
+    if out.snapshot:
+        names.append(SNAPSHOT)
+    return names
+
+
+def _prepare_rundir(rundir: Path, overwrite: bool, outputs: list[str]) -> list[str]:
+    """Make ``rundir`` ready for a fresh run; with ``overwrite``, remove what the manifest
+    says grainflow wrote there (returned, sorted), after checking that none of ``outputs``
+    would replace a file of the user's."""
     if rundir.exists() and not rundir.is_dir():
         raise RunDirError(f"{rundir} exists and is not a directory")
+    removed: list[str] = []
     if rundir.is_dir() and any(rundir.iterdir()):
         if not overwrite:
             raise RunDirError(f"{rundir} exists and is not empty; pass --overwrite to replace "
                               f"its run, or continue it with: grainflow resume {rundir}")
-        for name in OUTPUTS:
+        ours = read_manifest(rundir)
+        foreign = [name for name in outputs
+                   if (rundir / name).exists() and name not in ours]
+        config = rundir / CONFIG
+        if (CONFIG in ours and config.is_file()
+                and _checksum(config.read_bytes()) != ours[CONFIG].get("sha256")):
+            foreign.append(f"{CONFIG} (edited since grainflow wrote it)")
+        if foreign:
+            raise RunDirError(
+                f"{rundir}: --overwrite would replace files grainflow did not write: "
+                f"{', '.join(foreign)}; move them away or choose another run directory")
+        for name in sorted(set(ours) | set(TEMPORARY)):
             target = rundir / name
-            if target.is_dir():
+            if target.is_dir() and not target.is_symlink():
                 shutil.rmtree(target)
-            elif target.exists():
+            elif target.exists() or target.is_symlink():
                 target.unlink()
-    rundir.mkdir(parents=True, exist_ok=True)
+            else:
+                continue
+            removed.append(name)
+        (rundir / MANIFEST).unlink(missing_ok=True)
+    try:
+        rundir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise RunDirError(f"{rundir}: cannot create the run directory ({err.strerror})") from None
+    if not os.access(rundir, os.W_OK):
+        raise RunDirError(f"{rundir}: the run directory is not writable; choose another "
+                          "with --output")
+    return removed
+
+
+def record_outputs(rundir: Path, names: list[str] | tuple[str, ...], *,
+                   config_text: str | None = None) -> None:
+    """Add ``names`` (files or folders directly in ``rundir``) to the manifest of what
+    grainflow wrote there; ``config_text``: the config it is about to write (checksummed,
+    so a later hand edit is noticed)."""
+    rundir = Path(rundir)
+    entries = read_manifest(rundir)
+    for name in names:
+        entries.setdefault(name, {})
+    if config_text is not None:
+        entries[CONFIG] = {"sha256": _checksum(config_text.encode())}
+    _atomic_write_text(rundir / MANIFEST, json.dumps({"version": 1, "files": entries},
+                                                     indent=1, sort_keys=True) + "\n")
+
+
+def read_manifest(rundir: Path) -> dict[str, dict[str, Any]]:
+    """What grainflow wrote in ``rundir``: name -> details (the config's ``sha256``)."""
+    path = Path(rundir) / MANIFEST
+    if not path.is_file():
+        return {}
+    try:
+        files = json.loads(path.read_text())["files"]
+        if not isinstance(files, dict) or any("/" in k or k in ("", ".", "..") for k in files):
+            raise ValueError("unexpected entries")
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError) as err:
+        raise RunDirError(f"{path}: the list of files grainflow wrote here is damaged ({err}); "
+                          "nothing was removed. Delete the files of the old run yourself, "
+                          "or choose another run directory") from None
+    return files
+
+
+def _checksum(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
@@ -453,11 +570,23 @@ def _atomic_write_text(path: Path, text: str) -> None:
 
 
 def checkpoint_step(path: Path) -> int | None:
-    """Step of the checkpoint at ``path`` (None if there is none), without loading arrays."""
+    """Step of the checkpoint at ``path`` (None if there is none), without loading arrays;
+    :class:`RunDirError` if it is damaged."""
     if not path.is_file():
         return None
-    with np.load(path, allow_pickle=False) as z:
-        return int(json.loads(str(z["__plain__"]))["sim/step"])
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return int(json.loads(str(z["__plain__"]))["sim/step"])
+    except Exception as err:  # zip, npy, JSON and I/O errors alike: the file is damaged
+        raise RunDirError(_damaged_checkpoint(path, err)) from None
+
+
+def _damaged_checkpoint(path: Path, err: Exception) -> str:
+    size = path.stat().st_size if path.is_file() else 0
+    what = "empty" if size == 0 else f"truncated or not a checkpoint ({type(err).__name__}: {err})"
+    return (f"{path}: the checkpoint is damaged: {what}. The run cannot continue from it; "
+            f"move it aside and start the run again: grainflow run "
+            f"{path.parent / CONFIG} -o {path.parent} --overwrite")
 
 
 def read_summary(rundir: Path) -> dict[str, Any] | None:

@@ -9,6 +9,7 @@ the ``[run]`` settings (integrator, skin, seed, health checks) from the config.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -82,8 +83,10 @@ def make_simulation(config: RunConfig, state: ParticleState,
     if run.dt is None and default_dt is None:
         dt = sim.stable_time_step(run.dt_fraction)
         if not math.isfinite(dt):
-            raise ConfigError(["run.dt: missing; without a contact law there is no contact "
-                               "time to derive it from, so give dt explicitly"])
+            cause = ("there are no particles at step 0 (only [[insert]] adds them later)"
+                     if state.n == 0 else "without a contact law")
+            raise ConfigError([f"run.dt: missing; {cause} there is no contact time to derive "
+                               "it from, so give dt explicitly"])
         sim.dt = dt
     return sim
 
@@ -120,11 +123,24 @@ def build_generic(config: RunConfig) -> Simulation:
     periodic = tuple(box.periodic) if box.periodic is not None else (False,) * config.dim
     state = ParticleState(config.dim, Box(np.array(box.lo), np.array(box.hi), periodic))
     rng = np.random.default_rng([config.run.seed, 0x6275696C64])  # "build": fills, sizes
+    errors: list[str] = []
     for k, pop in enumerate(config.particles):
+        first = state.n
         try:
             _add_population(state, pop, rng)
         except ValueError as err:
-            raise ConfigError([f"particles[{k}]: {err}"]) from None
+            errors.append(_at(f"particles[{k}]", pop, err))
+            continue
+        errors += _misplaced(config, state, k, pop, np.arange(first, state.n))
+    if not config.particles and not config.insert:
+        errors.append("particles: no particles are defined; add a [[particles]] table (fill = "
+                      "\"lattice\", \"random\", \"list\" or \"lammps_data\", docs/config.md) "
+                      "or an [[insert]] updater")
+    if config.walls and config.contact is None:
+        errors.append("walls: need a [contact] law (walls touch particles through it); add "
+                      "a [contact] table")
+    if errors:
+        raise ConfigError(errors)
     laws = make_laws(config, _type_masses(state)) if config.contact is not None else None
     sim = make_simulation(config, state, laws)
     _add_walls(config, sim)
@@ -135,6 +151,18 @@ def build_generic(config: RunConfig) -> Simulation:
     if config.drag is not None:
         sim.add_force(Drag(np.array(config.drag)))
     return sim
+
+
+def _at(where: str, pop, err: ValueError) -> str:
+    """``where.field: ...`` when the message starts with a field of ``pop``, else
+    ``where: ...``; a data file's own message goes to ``where.file``."""
+    msg = str(err)
+    field = re.match(r"([A-Za-z_]\w*)[\w\[\]]*: ", msg)
+    if field and field[1] in type(pop).model_fields:
+        return f"{where}.{msg}"
+    if isinstance(pop, DataFile):
+        return f"{where}.file: {msg}"
+    return f"{where}: {msg}"
 
 
 def _add_population(state: ParticleState, pop, rng: np.random.Generator) -> None:
@@ -174,17 +202,111 @@ def _first_free_id(state: ParticleState) -> int:
 
 
 def _lattice_sites(pop: LatticeFill, state: ParticleState, rng: np.random.Generator) -> np.ndarray:
-    from grainflow.insertion.lattice import lattice_fill
+    """The sites of a lattice fill; a fill of more than ``MAX_LATTICE_SITES`` sites is refused
+    before anything is allocated, naming the field that sets the spacing."""
+    from grainflow.insertion.lattice import MAX_LATTICE_SITES, lattice_fill, lattice_site_count
 
     rmax = max(pop.radius)
     kind = pop.lattice or ("triangular" if state.dim == 2 else "fcc")
     spacing = pop.spacing or 2.2 * rmax
-    x = lattice_fill(_region(pop.region, state.box), spacing, kind, rmax,
-                     packing_fraction=pop.packing_fraction, rng=rng)
+    region = _region(pop.region, state.box)
+    sites = lattice_site_count(region, spacing, kind, rmax)
+    if sites > MAX_LATTICE_SITES:
+        if pop.packing_fraction is None:
+            asked = "every site is a particle"
+        else:
+            grain = math.pi * rmax**2 if state.dim == 2 else 4.0 / 3.0 * math.pi * rmax**3
+            asked = (f"packing_fraction {pop.packing_fraction:g} asks for about "
+                     f"{pop.packing_fraction * region.volume / grain:.3g} particles")
+        field = (f"spacing: {pop.spacing!r}" if pop.spacing is not None else
+                 f"radius: {_show_radius(pop.radius)} (spacing 2.2 x the largest radius)")
+        raise ValueError(f"{field} would make {sites:.3g} {kind} lattice sites in the region "
+                         f"({asked}); at most {MAX_LATTICE_SITES:,} are allowed: use a larger "
+                         "radius or spacing, or a smaller region (check the units)")
+    x = lattice_fill(region, spacing, kind, rmax, packing_fraction=pop.packing_fraction,
+                     rng=rng)
     if len(x) == 0:
         raise ValueError(f"region: holds no {kind} site of spacing {spacing:g} at least "
                          f"{rmax:g} (the largest radius) from its boundary; enlarge it")
     return x
+
+
+def _show_radius(radius: list[float]) -> str:
+    return f"{radius[0]!r}" if len(radius) == 1 else f"{radius!r}"
+
+
+def _misplaced(config: RunConfig, state: ParticleState, k: int, pop,
+               idx: np.ndarray) -> list[str]:
+    """Particles of population ``k`` (rows ``idx``, frozen ones left out) that start where
+    they surely should not: a data file's atoms outside the box on a non-periodic axis
+    (the fills are checked on load), and any centre behind a wall that divides space: behind
+    a plane, or on the wrong side of an infinite cylinder (outside a tube, inside a post)."""
+    where = f"particles[{k}]"
+    x = state.x[idx, :state.dim]
+    out = []
+    if isinstance(pop, DataFile):
+        box = state.box
+        for a in range(state.dim):
+            if box.periodic[a]:
+                continue
+            bad = (x[:, a] < box.lo[a]) | (x[:, a] > box.hi[a])
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                out.append(f"{where}.file: {int(bad.sum())} atom(s) lie outside the box on "
+                           f"axis {'xyz'[a]} (box {box.lo[a]:g} to {box.hi[a]:g}, not periodic), "
+                           f"e.g. atom id {int(state.id[idx[i]])} at {x[i].tolist()}; enlarge "
+                           "[box] or make the axis periodic")
+    moving = ~state.frozen[idx]
+    x3 = np.zeros((len(idx), 3))
+    x3[:, :state.dim] = x
+    for w, wall in enumerate(config.walls):
+        behind, side, shape = _behind_wall(wall, x3)
+        bad = behind & moving
+        if not bad.any():
+            continue
+        rows = np.flatnonzero(bad)
+        if isinstance(pop, ListFill):
+            more = f" (and {rows.size - 1} more)" if rows.size > 1 else ""
+            out.append(f"{where}.positions[{rows[0]}]: {pop.positions[rows[0]]!r} lies {side} "
+                       f"walls[{w}] ({shape}){more}; move it to the wall's acting side or "
+                       "change the wall")
+        else:
+            field = "file" if isinstance(pop, DataFile) else "region"
+            out.append(f"{where}.{field}: {rows.size} of {len(idx)} particles lie {side} "
+                       f"walls[{w}] ({shape}), e.g. at {x[rows[0]].tolist()}; move them to "
+                       "the wall's acting side or change the wall")
+    return out
+
+
+def _behind_wall(wall, x3: np.ndarray) -> tuple[np.ndarray, str, str]:
+    """Which centres ``x3`` (N, 3) lie on the side of ``wall`` that it never acts on, for the
+    walls that divide space (planes, infinite cylinders); where that is and the wall, in
+    words. Walls of zero direction are left to their own check."""
+    def unit(v) -> np.ndarray | None:
+        u = np.array([*v, 0.0][:3], dtype=float)
+        norm = np.linalg.norm(u)
+        return u / norm if norm > 0 else None
+
+    none = np.zeros(len(x3), dtype=bool)
+    if wall.shape == "plane" and (n := unit(wall.normal)) is not None:
+        return ((x3 - _point3(wall.point)) @ n < 0, "behind",
+                f"a plane through {wall.point!r} acting on the side its normal "
+                f"{wall.normal!r} points to")
+    if (wall.shape == "cylinder" and not any(map(math.isfinite, wall.axial_range))
+            and (a := unit(wall.axis_direction)) is not None):
+        d = x3 - _point3(wall.axis_point)
+        r = np.linalg.norm(d - np.outer(d @ a, a), axis=1)
+        kind = "tube" if wall.inside else "post"
+        return ((r > wall.radius) if wall.inside else (r < wall.radius),
+                "outside" if wall.inside else "inside",
+                f"an infinite {kind} of radius {wall.radius:g} around {wall.axis_point!r}, "
+                f"inside = {str(wall.inside).lower()}")
+    return none, "", ""
+
+
+def _point3(v) -> np.ndarray:
+    """A wall point of 2 or 3 components as 3 components (z = 0)."""
+    return np.array([*v, 0.0][:3], dtype=float)
 
 
 def _region(region, box: Box):
@@ -256,8 +378,6 @@ def _add_walls(config: RunConfig, sim: Simulation) -> None:
     through the law of their (particle type, wall type) pair."""
     if not config.walls:
         return
-    if not sim.interactions:
-        raise ConfigError(["walls: need a [contact] law (walls touch particles through it)"])
     from grainflow.walls import WallForce
 
     by_type: dict[int, list] = {}
@@ -378,7 +498,11 @@ def build_chute(config: RunConfig) -> Simulation:
     if config.dim != 3:
         raise ConfigError([f"dim: {config.dim} is not valid; the chute is 3D (dim = 3)"])
     section = config.section
-    state = chute_state(read_lammps_data(section.data_file), tuple(section.replicate))
+    try:
+        data = read_lammps_data(section.data_file)
+    except ValueError as err:
+        raise ConfigError([f"chute.data_file: {err}"]) from None
+    state = chute_state(data, tuple(section.replicate))
     law = chute_law()
     sim = make_simulation(config, state, law, default_dt=CHUTE["dt"], default_skin=CHUTE["skin"])
     sim.add_force(Gravity.chute(1.0, section.angle))

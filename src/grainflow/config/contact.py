@@ -22,7 +22,8 @@ import sys
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, create_model, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, StrictInt, create_model,
+                      model_validator)
 
 from grainflow.config.units import parse_quantity
 from grainflow.models.base import ContactLaw
@@ -89,7 +90,7 @@ _ParamsBase = create_model("_ParamsBase", __base__=_LawEntry, **_PARAM_FIELDS)
 class ContactPair(_ParamsBase):  # type: ignore[misc, valid-type]
     """One type pair's override of ``[contact]``."""
 
-    types: list[Annotated[int, Field(ge=0)]] = Field(min_length=2, max_length=2)
+    types: list[Annotated[StrictInt, Field(ge=0)]] = Field(min_length=2, max_length=2)
 
 
 class Contact(_ParamsBase):  # type: ignore[misc, valid-type]

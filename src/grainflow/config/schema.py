@@ -22,8 +22,8 @@ from types import NoneType, UnionType
 from typing import Annotated, Any, ClassVar, Literal, Union, get_args, get_origin
 
 from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Discriminator,
-                      Field, PrivateAttr, Tag, ValidationError, ValidationInfo,
-                      field_validator, model_validator)
+                      Field, PrivateAttr, StrictBool, StrictInt, Tag, ValidationError,
+                      ValidationInfo, field_validator, model_validator)
 
 from grainflow.config.contact import Contact
 from grainflow.config.units import parse_quantity
@@ -86,8 +86,13 @@ def _existing_file(value: Any, info: ValidationInfo) -> str:
 Length = quantity("length")
 PositiveLength = quantity("length", gt=0)
 FilePath = Annotated[str, AfterValidator(_existing_file)]
-TypeId = Annotated[int, Field(ge=0)]
-Steps = Annotated[int, Field(ge=1)]
+# Counts, ids and switches are strict: a string ("500", "no") or a float is refused, not
+# coerced; quantities (floats) accept integers and unit strings.
+TypeId = Annotated[StrictInt, Field(ge=0)]
+Steps = Annotated[StrictInt, Field(ge=1)]
+Count = Annotated[StrictInt, Field(ge=0)]
+#: A finite float (no inf or nan).
+Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
 class _Model(BaseModel):
@@ -106,14 +111,14 @@ class RunSection(_Model):
     dt_fraction: float = Field(0.02, gt=0, le=0.25,
                                description="dt = dt_fraction * t_c when dt is not given")
     integrator: Literal["verlet", "adams_bashforth2"] = "verlet"
-    seed: int = Field(0, ge=0, description="seed of the run's random-number generator")
+    seed: Count = Field(0, description="seed of the run's random-number generator")
     skin: quantity("length", gt=0) | None = Field(None, description="Verlet skin; 0.2 r_mean")
-    sort_every: int = Field(10, ge=1, description="re-sort particles every N list builds")
-    check_every: Steps = Field(100, description="health check (NaN, overlap) every N steps")
-    max_overlap_fraction: float = Field(
+    sort_every: Steps = Field(10, description="re-sort particles every N list builds")
+    check_every: Steps = Field(100, description="full health check every N steps (docs/config.md)")
+    max_overlap_fraction: Finite = Field(
         0.5, gt=0, description="overlap / radius beyond which the run is declared unstable")
-    allow_unsafe_dt: bool = Field(False, description="run even if dt > t_c/4 (diagnosis only)")
-    minimize: bool = Field(False, description="remove overlaps with FIRE before step 0")
+    allow_unsafe_dt: StrictBool = Field(False, description="run even if dt > t_c/4 (diagnosis only)")
+    minimize: StrictBool = Field(False, description="remove overlaps with FIRE before step 0")
 
     @model_validator(mode="after")
     def _length_given(self) -> "RunSection":
@@ -128,14 +133,14 @@ class OutputSection(_Model):
     """What is written into the run directory, and how often."""
 
     thermo_every: Steps = Field(100, description="thermo.csv row every N steps")
-    frames_every: int = Field(1000, ge=0, description="frame into frames.h5 every N steps; 0: none")
-    contacts: bool = Field(False, description="store each frame's contact list")
+    frames_every: Count = Field(1000, description="frame into frames.h5 every N steps; 0: none")
+    contacts: StrictBool = Field(False, description="store each frame's contact list")
     compression: Literal["gzip", "lzf", "none"] = "gzip"
-    checkpoint_every: int = Field(10000, ge=0, description="checkpoint every N steps; 0: only at "
+    checkpoint_every: Count = Field(10000, description="checkpoint every N steps; 0: only at "
                                   "the end and on SIGINT/SIGTERM")
-    snapshot: bool = Field(True, description="write final.png")
+    snapshot: StrictBool = Field(True, description="write final.png")
     snapshot_plane: Literal["xz", "xy", "yz"] = Field("xz", description="3D projection plane")
-    progress_interval: float = Field(10.0, gt=0, description="seconds between plain progress "
+    progress_interval: Finite = Field(10.0, gt=0, description="seconds between plain progress "
                                      "lines (when stdout is not a terminal)")
 
 
@@ -144,7 +149,7 @@ class BoxSection(_Model):
 
     lo: vector("length")
     hi: vector("length")
-    periodic: Annotated[list[bool], AfterValidator(_one_per_axis)] | None = None
+    periodic: Annotated[list[StrictBool], AfterValidator(_one_per_axis)] | None = None
 
     @field_validator("hi")
     @classmethod
@@ -223,7 +228,7 @@ class _Population(_Model):
 
     type: TypeId = Field(0, description="particle type (selects the contact parameters)")
     velocity: vector("velocity") | None = Field(None, description="initial velocity")
-    frozen: bool = Field(False, description="frozen particles never move (rough walls, bases)")
+    frozen: StrictBool = Field(False, description="frozen particles never move (rough walls, bases)")
 
 
 class SizedPopulation(_Population):
@@ -231,7 +236,7 @@ class SizedPopulation(_Population):
 
     radius: Annotated[list[PositiveLength], BeforeValidator(_listify)] = Field(
         description="radius, or a list of radii (polydisperse)")
-    fractions: list[Annotated[float, Field(gt=0)]] | None = Field(
+    fractions: list[Annotated[Finite, Field(gt=0)]] | None = Field(
         None, description="number fraction of each radius; default equal")
     density: quantity("density", gt=0) | None = Field(None, description="default 1")
     mass: quantity("mass", gt=0) | None = Field(None, description="instead of density")
@@ -298,7 +303,7 @@ class DataFile(_Population):
 
     fill: Literal["lammps_data"]
     file: FilePath
-    frozen_types: list[Annotated[int, Field(ge=1)]] = Field(
+    frozen_types: list[Annotated[StrictInt, Field(ge=1)]] = Field(
         [], description="LAMMPS types (1-based) to freeze, e.g. the chute's rough base")
     type: TypeId = Field(0, description="added to the file's (LAMMPS type - 1)")
 
@@ -325,7 +330,7 @@ class PourUpdater(_Inserting):
     kind: Literal["pour"]
     region: Region
     per_insertion: Steps
-    total: int | None = Field(None, ge=0, description="stop after this many grains")
+    total: Count | None = Field(None, description="stop after this many grains")
 
 
 class ReplenishUpdater(_Inserting):
@@ -334,7 +339,7 @@ class ReplenishUpdater(_Inserting):
     kind: Literal["replenish"]
     region: Region = Field(description="where the missing grains are inserted")
     count_region: Region
-    target: int = Field(ge=0)
+    target: Count
     types: list[TypeId] | None = Field(None, description="count only these types")
 
 
@@ -356,7 +361,7 @@ class DeleteUpdater(_Model):
 
     every: Steps
     region: Region
-    outside: bool = True
+    outside: StrictBool = True
     types: list[TypeId] | None = Field(None, description="only these types")
 
 
@@ -415,11 +420,11 @@ class CylinderWall(_Wall):
     axis_point: free_vector("length") = Field(description="a point of the axis (s = 0)")
     axis_direction: free_vector(None) = [0.0, 0.0, 1.0]
     radius: PositiveLength
-    inside: bool = True
+    inside: StrictBool = True
     axial_range: range_along_axis() = Field(
         [-math.inf, math.inf], description="[s_min, s_max] from axis_point along the axis")
-    lid_lo: bool = Field(False, description="close the end s_min with a flat disk")
-    lid_hi: bool = Field(False, description="close the end s_max with a flat disk")
+    lid_lo: StrictBool = Field(False, description="close the end s_min with a flat disk")
+    lid_hi: StrictBool = Field(False, description="close the end s_max with a flat disk")
 
     _lids = field_validator("lid_lo", "lid_hi")(_lid_on_a_finite_end)
 
@@ -445,9 +450,9 @@ class ConeWall(_Wall):
     radius_hi: quantity("length", ge=0) | None = Field(None, description="radius at hi")
     lo: Length | None = Field(None, description="lower end along the axis")
     hi: Length | None = Field(None, description="upper end along the axis")
-    inside: bool = True
-    lid_lo: bool = Field(False, description="close the lower end with a flat disk")
-    lid_hi: bool = Field(False, description="close the upper end with a flat disk")
+    inside: StrictBool = True
+    lid_lo: StrictBool = Field(False, description="close the lower end with a flat disk")
+    lid_hi: StrictBool = Field(False, description="close the upper end with a flat disk")
 
     _lids = field_validator("lid_lo", "lid_hi")(_lid_on_a_finite_end)
 
@@ -583,12 +588,7 @@ def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
         data, base_dir = dict(source), Path.cwd()
     else:
         path = Path(source)
-        try:
-            data = tomllib.loads(path.read_text())
-        except FileNotFoundError:
-            raise ConfigError([f"{path}: no such file"]) from None
-        except tomllib.TOMLDecodeError as err:
-            raise ConfigError([f"{path}: not valid TOML: {err}"]) from None
+        data = _read_toml(path)
         base_dir = path.resolve().parent
 
     name = data.get("scenario", "generic")
@@ -613,10 +613,156 @@ def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
         else:
             if config is not None:
                 config._section = section
+    if config is not None:
+        errors += _placement_problems(config)
     if errors:
         raise ConfigError(errors)
     assert config is not None
     return config
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    """The TOML table of the file ``path``; ConfigError if it is missing, not UTF-8 text
+    (binary, UTF-16) or not valid TOML (naming the line)."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError([f"{path}: no such file"]) from None
+    except OSError as err:
+        raise ConfigError([f"{path}: cannot be read ({err.strerror or err})"]) from None
+    fix = "save the configuration as UTF-8 text"
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise ConfigError([f"{path}: not UTF-8 TOML text (it starts with a UTF-16 byte order "
+                           f"mark); {fix}"])
+    if b"\x00" in raw:
+        raise ConfigError([f"{path}: not UTF-8 TOML text (it holds NUL bytes: UTF-16 without "
+                           f"a byte order mark, or a binary file); {fix}"])
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise ConfigError([f"{path}: not UTF-8 TOML text (byte {err.object[err.start]:#04x} at "
+                           f"offset {err.start} is not UTF-8; a binary file?); {fix}"]) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        where = re.search(r"\(at line (\d+), column (\d+)\)", str(err))
+        line = f", line {where[1]}" if where else ""
+        raise ConfigError([f"{path}{line}: not valid TOML: {err}"]) from None
+
+
+# -------------------------------------------------------------------- cross-field checks
+#: Densest packing fraction of equal disks (2D) and spheres (3D): a random fill asking for
+#: more cannot be placed.
+DENSEST_PACKING = {2: math.pi / (2 * math.sqrt(3)), 3: math.pi / (3 * math.sqrt(2))}
+#: Lattice kinds of each dimension.
+LATTICES = {2: ("square", "triangular"), 3: ("simple_cubic", "fcc")}
+
+
+def _placement_problems(config: RunConfig) -> list[str]:
+    """Where the fills put particles, against the box and each other's dimension.
+
+    On non-periodic axes a ``list`` position must lie in the box and a ``lattice``/``random``
+    region inside it (periodic axes wrap, so they do not count); a fill region must be
+    bounded (not a half-space) and of the run's dimension, the lattice kind too; a random
+    fill may not ask for more grain volume than the densest packing of its region holds.
+    """
+    problems: list[str] = []
+    dim = config.dim
+    box = config.box
+    for k, pop in enumerate(config.particles):
+        where = f"particles[{k}]"
+        if isinstance(pop, ListFill) and box is not None:
+            for i, x in enumerate(pop.positions):
+                axes = _outside_box(box, dim, x, x)
+                if axes:
+                    problems.append(f"{where}.positions[{i}]: {x!r} is outside the box on "
+                                    f"{axes}; expected a position inside the box on "
+                                    "non-periodic axes (or make the axis periodic)")
+        if not isinstance(pop, (LatticeFill, RandomFill)):
+            continue
+        if isinstance(pop, LatticeFill) and pop.lattice not in (None, *LATTICES[dim]):
+            problems.append(f"{where}.lattice: {pop.lattice!r} is not valid in {dim}D; "
+                            f"expected one of {LATTICES[dim]}")
+        region = pop.region
+        if region is None:
+            if isinstance(pop, RandomFill) and box is not None:
+                problems += _overfull(pop, where, _region_volume(box, dim), dim)
+            continue
+        bounds = _region_bounds(region, dim)
+        if isinstance(bounds, str):
+            problems.append(f"{where}.region: {bounds}")
+            continue
+        axes = _outside_box(box, dim, *bounds) if box is not None else ""
+        if axes:
+            problems.append(f"{where}.region: {_show_region(region)} reaches outside the box "
+                            f"on {axes}; expected a region inside the box on non-periodic "
+                            "axes (shrink the region, enlarge the box or make the axis "
+                            "periodic)")
+        if isinstance(pop, RandomFill):
+            problems += _overfull(pop, where, _region_volume(region, dim), dim)
+    return problems
+
+
+def _outside_box(box: BoxSection, dim: int, lo: list[float], hi: list[float]) -> str:
+    """The non-periodic axes on which ``[lo, hi]`` leaves the box, described ("" if none)."""
+    periodic = box.periodic or [False] * dim
+    names = "xyz"
+    out = []
+    for a in range(dim):
+        slack = 1e-9 * (box.hi[a] - box.lo[a])
+        if not periodic[a] and (lo[a] < box.lo[a] - slack or hi[a] > box.hi[a] + slack):
+            out.append(f"axis {names[a]} (box {box.lo[a]:g} to {box.hi[a]:g}, not periodic)")
+    return ", ".join(out)
+
+
+def _region_bounds(region: Any, dim: int) -> tuple[list[float], list[float]] | str:
+    """Bounding box of a fill region, or why the region cannot be filled."""
+    if region.shape == "halfspace":
+        return ("'halfspace' is unbounded and cannot be filled; expected a region of shape "
+                f"'box' or {'disk' if dim == 2 else 'cylinder'!r}")
+    if region.shape == "box":
+        return region.lo, region.hi
+    if (region.shape == "disk") != (dim == 2):
+        return (f"shape {region.shape!r} is {5 - dim}D but the run is {dim}D (dim = {dim}); "
+                f"expected 'box' or {'disk' if dim == 2 else 'cylinder'!r}")
+    if region.shape == "disk":
+        return ([c - region.radius for c in region.center],
+                [c + region.radius for c in region.center])
+    off = [a for a in range(3) if a != region.axis]
+    lo, hi = [0.0] * 3, [0.0] * 3
+    for a, c in zip(off, region.center):
+        lo[a], hi[a] = c - region.radius, c + region.radius
+    lo[region.axis], hi[region.axis] = region.lo, region.hi
+    return lo, hi
+
+
+def _region_volume(region: Any, dim: int) -> float:
+    """Volume (area in 2D) of a bounded fill region or of the box."""
+    if getattr(region, "shape", "box") == "box":
+        return math.prod(h - lo for lo, h in zip(region.lo, region.hi))
+    area = math.pi * region.radius**2
+    return area if region.shape == "disk" else area * (region.hi - region.lo)
+
+
+def _show_region(region: Any) -> str:
+    if region.shape == "box":
+        return f"lo {region.lo!r}, hi {region.hi!r}"
+    return f"{region.shape} of radius {region.radius:g} around {region.center!r}"
+
+
+def _overfull(pop: "RandomFill", where: str, volume: float, dim: int) -> list[str]:
+    """A random fill whose grains would fill more than the densest packing of the region."""
+    n = pop.count
+    fractions = pop.fractions or [1.0] * len(pop.radius)
+    each = [math.pi * r**2 if dim == 2 else 4.0 / 3.0 * math.pi * r**3 for r in pop.radius]
+    grains = n * sum(f * v for f, v in zip(fractions, each)) / sum(fractions)
+    densest = DENSEST_PACKING[dim]
+    if grains <= densest * volume:
+        return []
+    return [f"{where}.count: {n} grains (radius {_show(pop.radius)}) would fill {grains:.4g} "
+            f"of a region of {'area' if dim == 2 else 'volume'} {volume:.4g} (packing fraction "
+            f"{grains / volume:.3g}); no packing exceeds {densest:.3f} and a random fill jams "
+            f"near {0.55 if dim == 2 else 0.38}: ask for fewer grains or enlarge the region"]
 
 
 def _unused_sections(data: dict[str, Any], scenario: Scenario) -> list[str]:
@@ -656,7 +802,8 @@ def format_errors(err: ValidationError, root: type[BaseModel], prefix: str = "")
             key = str(ctx.get("discriminator", "")).strip("'")
             tag = ctx.get("tag")
             shown = "missing" if tag is None else f"{tag!r} is not valid"
-            lines.append(f"{path}.{key}: {shown}; expected one of {ctx.get('expected_tags')}")
+            tags = ctx.get("expected_tags") or ", ".join(repr(t) for t in _tags(here, key))
+            lines.append(f"{path}.{key}: {shown}; expected one of {tags}")
         elif kind in ("value_error", "assertion_error"):
             msg = e["msg"].removeprefix("Value error, ")
             field = re.match(r"([A-Za-z_]\w*)[\w\[\]\.]*: ", msg)
@@ -722,6 +869,12 @@ def _unwrap(t: Any) -> Any:
             t = args[0]
         else:
             return t
+
+
+def _tags(union: Any, key: str) -> list[Any]:
+    """The values of the discriminator ``key`` that the members of ``union`` accept."""
+    return [tag for m in _union_members(union) if _is_model(m) and key in m.model_fields
+            for tag in get_args(m.model_fields[key].annotation)]
 
 
 def _union_members(t: Any) -> list[Any]:

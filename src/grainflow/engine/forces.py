@@ -43,6 +43,12 @@ class Gravity(Force):
         st = ctx.state
         _add_body_force(st.force, st.mass, st.frozen, self.g[0], self.g[1], self.g[2])
 
+    def potential_energy(self, ctx: ForceContext) -> float:
+        """``-sum m g . x`` over the mobile particles."""
+        st = ctx.state
+        mobile = ~st.frozen
+        return -float(np.sum(st.mass[mobile] * (st.x[mobile] @ self.g)))
+
 
 @njit(cache=True, parallel=True)
 def _add_drag(force, v, zeta_of_type, ptype, frozen):
@@ -86,6 +92,10 @@ class Drag(Force):
         st = ctx.state
         z = self._of_types(int(st.type.max()) + 1 if st.n else 1)
         _add_drag(st.force, st.v, z, st.type, st.frozen)
+
+    def potential_energy(self, ctx: ForceContext) -> float:
+        """Drag only dissipates: nothing is stored."""
+        return 0.0
 
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
         """``m / zeta`` of the lightest particle of each type."""

@@ -221,6 +221,14 @@ class Force(ABC):
         particle index of the latter (``(0, 0, -1)`` if none)."""
         return 0.0, 0.0, -1
 
+    def potential_energy(self, ctx: ForceContext) -> float | None:
+        """Energy stored in its conservative field now (gravity: ``-sum m g.x``; a spring:
+        ``k s^2 / 2``), 0 for a purely dissipative force, or None when it can supply energy
+        the health check's energy balance cannot count (a moving wall, cohesion). Elastic
+        energy of contacts is not counted here: the check bounds it from the contact list.
+        """
+        return None
+
     def reindex(self, old_to_new: np.ndarray) -> None:
         """Particles were deleted (``old_to_new[i] = -1``) or permuted."""
 

@@ -142,6 +142,11 @@ class PairInteraction(Force):
         branch = ctx.geometry.branch(ctx.state.x[pi], ctx.state.x[pj])
         return [ContactRows(pi, pj, PAIR, self.fc_pair[slot, :3].copy(), branch)]
 
+    def potential_energy(self, ctx: ForceContext) -> float | None:
+        """Contacts store only elastic energy (bounded by the health check from the contact
+        list): 0; a cohesive law releases energy when contacts form: None."""
+        return None if self.law.cohesive else 0.0
+
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
         """Contact time and kinetic relaxation time of every owned type pair present, with
         the lightest and smallest particle of each type."""

@@ -11,7 +11,9 @@ Order of work within one step of :meth:`Simulation.run` (the same for every set-
     4. integrator.post_force       (VV: second half kick)
     5. step += 1, time += dt
     6. updaters due this step      (insertion, deletion, reinsertion; may change N)
-    7. health check every ``check_every`` steps (NaN/inf, overlap > max_overlap_fraction r)
+    7. health check every ``check_every`` steps (:meth:`Simulation.check_health`); on
+       the other steps where an output is due, the cheap compiled part of it
+       (:meth:`Simulation.check_state`), so nothing broken is ever written
     8. observers due this step     (outputs, analyses; read-only access to state/contacts)
 
 Before the first step forces are evaluated once without advancing contact histories
@@ -39,7 +41,8 @@ from grainflow.engine.operations import (Clock, ContactRows, Force, ForceContext
                                          Observer, ObserverContext, TimeScale, Updater,
                                          UpdateContext)
 from grainflow.engine.pair import PairInteraction
-from grainflow.frame import WALL, Contacts, Frame
+from grainflow.frame import PAIR, WALL, Contacts, Frame
+from grainflow.kernels.health import ARRAY_OF_CODE, HEALTHY, TOO_FAST, scan_state
 from grainflow.kernels.pair_loop import max_pair_overlap, max_relative_overlap
 from grainflow.models.base import ContactLaw
 from grainflow.state import ParticleState
@@ -64,8 +67,27 @@ class _Scheduled:
     every: int
     action: Callable[[Any], None]
     owner: Any
+    checked: bool = True
 
 
+@dataclass
+class _EnergyReference:
+    """Mechanical energy at a health check, and how much it may grow from there without a
+    source: the elastic energy the contacts then held (bounded) plus a margin."""
+
+    step: int
+    energy: float
+    allowance: float
+
+
+#: A step may move a particle at most this fraction of its radius (beyond, grains tunnel
+#: through walls and each other between two force evaluations).
+MAX_STEP_FRACTION = 0.5
+#: Margin of the energy check: the mechanical energy may exceed its value at the reference
+#: check by the elastic energy then stored plus this fraction of the kinetic and elastic
+#: energy then present (integration error is orders of magnitude smaller; a blow-up grows
+#: without bound).
+ENERGY_MARGIN = 0.5
 #: dt above ``t / WARN_RATIO`` warns, above ``t / REFUSE_RATIO`` refuses, for each kind of
 #: time scale: the half period of an oscillation (a contact, a tether), and the relaxation
 #: time of a velocity (drag, kinetic friction; an explicit step is unstable past 2 tau).
@@ -128,6 +150,11 @@ class Simulation:
                              "expected a positive finite fraction of the radius")
         self.max_overlap_fraction = float(max_overlap_fraction)
         self.allow_unsafe_dt = bool(allow_unsafe_dt)
+        #: Particles farther than this many box lengths outside the box on a non-periodic
+        #: axis, moving away, are lost: the run stops (None: never). Box bounds are
+        #: otherwise informational.
+        self.escape_lengths: float | None = 1.0
+        self._energy_ref: _EnergyReference | None = None
         self.forces_current = False
         self.rebuilds = 0
         self.wall_seconds = 0.0
@@ -194,13 +221,15 @@ class Simulation:
         action = updater.update if hasattr(updater, "update") else updater
         self.updaters.append(_Scheduled(int(every), action, updater))
 
-    def add_observer(self, observer: Observer, every: int = 1) -> None:
+    def add_observer(self, observer: Observer, every: int = 1, *, checked: bool = True) -> None:
         """Call ``observer(ctx)`` every ``every`` steps (after the step's updaters), with an
         :class:`~grainflow.engine.operations.ObserverContext`; ``observer.start(ctx)``, if
-        defined, runs when each :meth:`run` begins."""
+        defined, runs when each :meth:`run` begins. Before a ``checked`` observer (one that
+        writes or analyses the state) runs, :meth:`check_state` makes sure the state is
+        whole; ``checked=False`` is for observers that read only counters (progress)."""
         if every < 1:
             raise ValueError("every: observers need an interval >= 1 step")
-        self.observers.append(_Scheduled(int(every), observer, observer))
+        self.observers.append(_Scheduled(int(every), observer, observer, checked))
 
     @property
     def walls(self) -> tuple:
@@ -212,6 +241,7 @@ class Simulation:
         """Insert particles (see :meth:`ParticleState.add_particles`); forces are refreshed."""
         idx = self.state.add_particles(x, radius, **kw)
         self.forces_current = False
+        self._energy_ref = None  # inserted grains bring energy
         return idx
 
     def remove_particles(self, mask: np.ndarray) -> np.ndarray:
@@ -220,6 +250,7 @@ class Simulation:
         for op in (*self.interactions, *self.forces):
             op.reindex(old_to_new)
         self.forces_current = False
+        self._energy_ref = None
         return old_to_new
 
     def relocate(self, index: np.ndarray, x: np.ndarray, v: np.ndarray | None = None,
@@ -231,6 +262,7 @@ class Simulation:
             interaction.forget(index, self.context)
         self.state.relocate(index, x, v, omega)
         self.forces_current = False
+        self._energy_ref = None  # a reinsertion brings energy
 
     # ------------------------------------------------------------- forces
     def _assign_types(self) -> None:
@@ -303,6 +335,8 @@ class Simulation:
         self.check_time_step()
         if not self.forces_current:
             self.compute_forces(update=False)
+        self._energy_ref = None  # the state may have been edited between runs
+        self.check_state()
         for o in self.observers:
             start = getattr(o.owner, "start", None)
             if start is not None:
@@ -325,6 +359,11 @@ class Simulation:
                 self.compute_forces(update=False)
             if self.check_every and clock.step % self.check_every == 0:
                 self.check_health()
+            else:
+                for o in self.observers:
+                    if o.checked and clock.step % o.every == 0:
+                        self.check_state()
+                        break
             for o in self.observers:
                 if clock.step % o.every == 0:
                     o.action(self.observer_context)
@@ -391,21 +430,38 @@ class Simulation:
             best = max(best, f.max_overlap(self.context)[0])
         return best
 
-    def check_health(self) -> None:
-        """Raise :class:`InstabilityError` on non-finite state or excessive overlap (with
-        another particle or a wall)."""
+    def check_state(self) -> None:
+        """The cheap part of the health check (one compiled pass, run before every output):
+        raise :class:`InstabilityError` on a non-finite position, velocity, angular velocity
+        or force, or on a particle moving more than ``MAX_STEP_FRACTION`` of its radius in
+        one step."""
         st = self.state
-        for name in ("x", "v", "omega"):
-            if np.isfinite(st.arrays[name]).all():
-                continue
-            bad = ~np.isfinite(st.arrays[name]).all(axis=1)
-            i = int(np.argmax(bad))
+        code, i, value = scan_state(st.x, st.v, st.omega, st.force, st.radius, st.frozen,
+                                    self.dt, MAX_STEP_FRACTION)
+        if code == HEALTHY:
+            return
+        if code == TOO_FAST:
             raise InstabilityError(
                 self.step, int(st.id[i]),
-                f"non-finite {name}; the time step dt = {self.dt:g} is probably too large "
-                f"for the shortest time scale {self._shortest_scale()}")
+                f"it moves {value:.3g} radii per step (|v| = "
+                f"{float(np.linalg.norm(st.v[i])):.4g}, dt = {self.dt:g}), more than "
+                f"{MAX_STEP_FRACTION:g}: at that speed grains pass through walls and each "
+                f"other; dt is too large for {self._shortest_scale()}, or the particle was "
+                "given an unphysical velocity")
+        raise InstabilityError(
+            self.step, int(st.id[i]),
+            f"non-finite {ARRAY_OF_CODE[code]}; the time step dt = {self.dt:g} is probably "
+            f"too large for {self._shortest_scale()}")
+
+    def check_health(self) -> None:
+        """Raise :class:`InstabilityError` on a broken state (:meth:`check_state`), a
+        particle lost far outside the box, an overlap past ``max_overlap_fraction`` (with
+        another particle or a wall), or mechanical energy growing without a source."""
+        self.check_state()
+        st = self.state
         if not st.n:
             return
+        self._check_escape()
         frac, i, what = self._max_overlap_fraction()
         for f in self.forces:
             _, wall_frac, wall_i = f.max_overlap(self.context)
@@ -417,6 +473,89 @@ class Simulation:
                 f"overlap {frac:.3g} of the radius {what} exceeds max_overlap_fraction = "
                 f"{self.max_overlap_fraction:g}; particles are too soft for the load or "
                 f"dt = {self.dt:g} is too large for {self._shortest_scale()}")
+        self._check_energy()
+
+    def _check_escape(self) -> None:
+        """Particles farther than ``escape_lengths`` box lengths outside the box on a
+        non-periodic axis, and moving away from it, have left every region walls bound
+        (LAMMPS's lost atoms)."""
+        if self.escape_lengths is None:
+            return
+        st = self.state
+        box = st.box
+        for a in range(st.dim):
+            if box.periodic[a]:
+                continue
+            margin = self.escape_lengths * float(box.hi[a] - box.lo[a])
+            coord, speed = st.x[:, a], st.v[:, a]
+            out = (((coord < box.lo[a] - margin) & (speed < 0))
+                   | ((coord > box.hi[a] + margin) & (speed > 0)))
+            out &= ~st.frozen
+            if out.any():
+                i = int(np.argmax(out))
+                raise InstabilityError(
+                    self.step, int(st.id[i]),
+                    f"it left the box: {'xyz'[a]} = {coord[i]:.4g}, box {box.lo[a]:.4g} to "
+                    f"{box.hi[a]:.4g} (lost past {self.escape_lengths:g} box length); it "
+                    f"tunnelled through a wall (dt = {self.dt:g} too large for "
+                    f"{self._shortest_scale()}) or nothing holds it there (add a wall or a "
+                    "delete updater)")
+
+    def _mechanical_energy(self) -> float | None:
+        """Kinetic, rotational and field energy now; None when some operation can supply
+        energy the balance does not count (see ``Force.potential_energy``)."""
+        st = self.state
+        total = st.kinetic_energy() + st.rotational_energy()
+        for op in (*self.interactions, *self.forces):
+            e = op.potential_energy(self.context)
+            if e is None:
+                return None
+            total += e
+        return total
+
+    def _elastic_energy_bound(self) -> float:
+        """An upper bound of the elastic energy pair and wall contacts hold now:
+        ``2 sum |F| delta`` (the integral of a force growing with the overlap is at most
+        ``|F| delta``; the factor 2 covers tangential springs)."""
+        st = self.state
+        c = self.contacts()
+        touching = (c.kind == PAIR) | (c.kind == WALL)
+        if not touching.any():
+            return 0.0
+        order = np.argsort(st.id)
+        index_of = lambda ids: order[np.searchsorted(st.id, ids, sorter=order)]  # noqa: E731
+        i = index_of(c.i[touching])
+        reach = st.radius[i].copy()
+        pair = c.kind[touching] == PAIR
+        reach[pair] += st.radius[index_of(c.j[touching][pair])]
+        overlap = np.maximum(reach - np.linalg.norm(c.branch[touching], axis=1), 0.0)
+        return 2.0 * float(np.sum(np.linalg.norm(c.force[touching], axis=1) * overlap))
+
+    def _check_energy(self) -> None:
+        """Mechanical energy may not grow past its reference (the first check after a
+        run starts or the particles were edited) by more than the allowance."""
+        energy = self._mechanical_energy()
+        if energy is None:
+            self._energy_ref = None
+            return
+        st = self.state
+        ref = self._energy_ref
+        if ref is None:
+            kinetic = st.kinetic_energy() + st.rotational_energy()
+            elastic = self._elastic_energy_bound()
+            allowance = (elastic + ENERGY_MARGIN * (kinetic + elastic)
+                         + 1e-9 * (abs(energy) + kinetic))
+            self._energy_ref = _EnergyReference(self.step, energy, allowance)
+            return
+        if energy - ref.energy <= ref.allowance:
+            return
+        i = int(np.argmax(st.mass * np.einsum("ij,ij->i", st.v, st.v)))
+        raise InstabilityError(
+            self.step, int(st.id[i]),
+            f"the mechanical energy grew from {ref.energy:.6g} at step {ref.step} to "
+            f"{energy:.6g} with no source (no insertion, moving wall or cohesion); this "
+            f"particle is the fastest; dt = {self.dt:g} is probably too large for "
+            f"{self._shortest_scale()}")
 
     def _shortest_scale(self) -> str:
         scales = self.time_scales()
@@ -480,7 +619,7 @@ class Simulation:
         nl = self.neighbors
         return {
             "step": self.step, "time": self.time, "dt": self.dt,
-            "particle_steps": self.particle_steps,
+            "particle_steps": self.particle_steps, "rebuilds": self.rebuilds,
             "forces_current": self.forces_current,
             "arrays": {k: v.copy() for k, v in self.state.arrays.items()},
             "next_id": self.state._next_id,
@@ -529,6 +668,8 @@ class Simulation:
             if hasattr(u.owner, "load_state_dict") and str(k) in data["updaters"]:
                 u.owner.load_state_dict(data["updaters"][str(k)])
         self.rng.bit_generator.state = data["rng"]
+        self.rebuilds = int(data.get("rebuilds", self.rebuilds))
+        self._energy_ref = None
         # Forces and per-pair buffers are saved as they were: the next step continues
         # exactly where the saved run was.
         self.forces_current = bool(data["forces_current"])

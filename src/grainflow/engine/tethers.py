@@ -222,6 +222,22 @@ class Tethers(Force):
                                     d))
         return rows
 
+    def potential_energy(self, ctx: ForceContext) -> float:
+        """Spring energy ``k s^2 / 2`` of every anchor (``s = |x - anchor|``) and every bond
+        (``s = |x_i - x_j| - l0``); anchors do not move, so tethers supply no energy."""
+        st = ctx.state
+        self._refresh_indices(st)
+        held = self._idx >= 0
+        a = self._idx[held]
+        s2 = float(np.sum(ctx.geometry.branch(st.x[a], self.anchor[held]) ** 2))
+        whole = np.all(self._pairs >= 0, axis=1)
+        pairs = self._pairs[whole]
+        if pairs.size:
+            r = np.linalg.norm(ctx.geometry.branch(st.x[pairs[:, 0]], st.x[pairs[:, 1]]),
+                               axis=1)
+            s2 += float(np.sum((r - self.l0[whole]) ** 2))
+        return 0.5 * self.k * s2
+
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
         """Half period ``pi sqrt(m / k_max)`` and relaxation time ``m / eta_max`` of the
         lightest tethered particle, with ``k_max = k (1 + 2 z)`` for ``z`` bonds, the

@@ -1,7 +1,11 @@
 """Reader for LAMMPS data files with ``atom_style sphere``.
 
 Atoms line: ``id type diameter density x y z [ix iy iz]``; Velocities line:
-``id vx vy vz wx wy wz``. Mass is ``density * pi d^3 / 6`` (3D), as LAMMPS computes it
+``id vx vy vz wx wy wz``. The style is read from the comment of the ``Atoms`` line
+(``Atoms # sphere``, as LAMMPS writes it); any other style is refused. Without a comment the
+style is inferred from the column count: 7 or 10 columns are read as sphere (``full`` has
+as many; write ``Atoms # sphere`` to be explicit), other counts are refused with the styles
+they suggest. Atom ids must be unique. Mass is ``density * pi d^3 / 6`` (3D), as LAMMPS computes it
 (a diameter of 0 would be a point particle and is refused). Only orthogonal boxes are read.
 Gzip-compressed files (``data.chute.gz``) are read as they are: compression is recognised by
 the file's first bytes, not its name.
@@ -49,9 +53,11 @@ def read_lammps_data(path: str | Path) -> LammpsData:
     natoms = None
     tilted = False
     sections: dict[str, list[str]] = {}
+    line_numbers: dict[str, list[int]] = {}
+    style = None
     current = None
-    for raw in lines[1:]:
-        line = raw.split("#", 1)[0].strip()
+    for number, raw in enumerate(lines[1:], start=2):
+        line, _, comment = (part.strip() for part in raw.partition("#"))
         if not line:
             continue
         words = line.split()
@@ -67,26 +73,28 @@ def read_lammps_data(path: str | Path) -> LammpsData:
             if words[0] in ("Atoms", "Velocities", "Masses", "Bonds"):
                 current = words[0]
                 sections[current] = []
-                if current == "Atoms" and len(words) > 1 and words[1] != "sphere":
-                    raise ValueError(f"{path}: Atoms section is '{words[1]}', expected sphere")
+                line_numbers[current] = []
+                if current == "Atoms":
+                    style = (comment.split() or [None])[0]
             continue
         if words[0][0].isalpha():
             current = words[0]
             sections[current] = []
+            line_numbers[current] = []
             continue
         sections[current].append(line)
+        line_numbers[current].append(number)
     if natoms is None or "Atoms" not in sections:
         raise ValueError(f"{path}: not a LAMMPS data file (no atom count or Atoms section)")
     if tilted:
         raise ValueError(f"{path}: triclinic box (xy xz yz line); only orthogonal boxes are "
                          "read: write the data file from an orthogonal region")
     atoms = _numeric_table(path, "Atoms", sections["Atoms"])
+    _check_style(path, style, atoms.shape[1])
     if atoms.shape[0] != natoms:
         raise ValueError(f"{path}: header says {natoms} atoms, Atoms section has "
                          f"{atoms.shape[0]}")
-    if atoms.shape[1] not in (7, 10):
-        raise ValueError(f"{path}: Atoms lines have {atoms.shape[1]} columns; atom_style "
-                         "sphere needs 7 (id type diameter density x y z) or 10 (+ images)")
+    _check_unique_ids(path, atoms[:, 0], line_numbers["Atoms"])
     order = np.argsort(atoms[:, 0])
     atoms = atoms[order]
     image = atoms[:, 7:10].astype(np.int64) if atoms.shape[1] == 10 else np.zeros((natoms, 3),
@@ -112,6 +120,43 @@ def read_lammps_data(path: str | Path) -> LammpsData:
     return LammpsData(lo=lo, hi=hi, id=atoms[:, 0].astype(np.int64),
                       type=atoms[:, 1].astype(np.int32), diameter=diameter, density=atoms[:, 3],
                       x=atoms[:, 4:7], image=image, v=v, omega=omega)
+
+
+#: Columns of an Atoms line (without the 3 image flags) of LAMMPS's common atom styles.
+STYLE_COLUMNS = {"atomic": 5, "charge": 6, "bond": 6, "angle": 6, "molecular": 6, "full": 7,
+                 "sphere": 7, "ellipsoid": 7, "dipole": 9}
+
+
+def _check_style(path: Path, style: str | None, columns: int) -> None:
+    """Refuse an Atoms section of another style than sphere: the style named by the comment
+    of the ``Atoms`` line, else the one the column count suggests."""
+    sphere = "atom_style sphere: id type diameter density x y z, optionally + ix iy iz"
+    if style is not None:
+        if style != "sphere":
+            raise ValueError(f"{path}: the Atoms section is atom_style {style!r} ('Atoms # "
+                             f"{style}'); only {sphere} is read: write the data file with "
+                             "atom_style sphere")
+        if columns not in (7, 10):
+            raise ValueError(f"{path}: Atoms lines have {columns} columns; {sphere} (7 or 10)")
+        return
+    if columns in (7, 10):
+        return  # sphere's count (full and ellipsoid have as many; the comment would say)
+    guesses = sorted(s for s, n in STYLE_COLUMNS.items() if columns in (n, n + 3))
+    suggests = (f"which suggests atom_style {' or '.join(guesses)}" if guesses else
+                "which matches no common atom style")
+    raise ValueError(f"{path}: Atoms lines have {columns} columns and the Atoms line names no "
+                     f"style (no '# style' comment), {suggests}; only {sphere} (7 or 10 "
+                     "columns) is read: write the data file with atom_style sphere")
+
+
+def _check_unique_ids(path: Path, ids: np.ndarray, line_numbers: list[int]) -> None:
+    """Refuse an atom id that two Atoms lines share, naming both lines."""
+    first: dict[int, int] = {}
+    for atom_id, number in zip(ids.astype(np.int64).tolist(), line_numbers):
+        if atom_id in first:
+            raise ValueError(f"{path}: atom id {atom_id} appears twice in the Atoms section, "
+                             f"on lines {first[atom_id]} and {number}; atom ids must be unique")
+        first[atom_id] = number
 
 
 def _read_text(path: Path) -> str:

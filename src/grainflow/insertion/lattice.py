@@ -26,6 +26,10 @@ IDEAL_PACKING = {
 
 _DIM = {"square": 2, "triangular": 2, "simple_cubic": 3, "fcc": 3}
 
+#: Most lattice sites one fill may make (each site costs a few hundred bytes while filling):
+#: 50 million sites are about 10 GiB; a larger count is almost always a unit slip.
+MAX_LATTICE_SITES = 50_000_000
+
 
 def _cell(kind: str, s: float) -> tuple[np.ndarray, np.ndarray]:
     """Conventional cell edge lengths and basis points of a lattice of spacing ``s``."""
@@ -42,12 +46,23 @@ def _cell(kind: str, s: float) -> tuple[np.ndarray, np.ndarray]:
                                           [half, 0.0, half], [0.0, half, half]])
 
 
-def lattice_points(region: Region, spacing: float, kind: str, margin: float = 0.0) -> np.ndarray:
-    """Lattice sites (M, dim) inside ``region`` and at least ``margin`` from its boundary.
+def lattice_site_count(region: Region, spacing: float, kind: str, margin: float = 0.0) -> int:
+    """Number of lattice sites in the bounding box of ``region`` (inset by ``margin``): what
+    :func:`lattice_points` allocates before keeping the sites inside the region."""
+    _check_lattice(region, spacing, kind)
+    counts = _cell_counts(region, spacing, kind, margin)
+    return 0 if np.any(counts < 1) else int(np.prod(counts.astype(float))) * len(_cell(kind, 1.0)[1])
 
-    The lattice starts at the corner ``bounds()[0] + margin`` of the region's bounding box.
-    ``kind``: ``"square"``, ``"triangular"`` (2D), ``"simple_cubic"``, ``"fcc"`` (3D).
-    """
+
+def _cell_counts(region: Region, spacing: float, kind: str, margin: float) -> np.ndarray:
+    """Conventional cells along each axis of the region's bounding box inset by ``margin``
+    (as floats: a huge count must not overflow)."""
+    lo, hi = region.bounds()
+    cell, _ = _cell(kind, spacing)
+    return np.floor((hi - margin - (lo + margin)) / cell) + 1
+
+
+def _check_lattice(region: Region, spacing: float, kind: str) -> None:
     if kind not in _DIM:
         raise ValueError(f"kind: {kind!r} is not a lattice; use one of {sorted(_DIM)}")
     if _DIM[kind] != region.dim:
@@ -55,12 +70,27 @@ def lattice_points(region: Region, spacing: float, kind: str, margin: float = 0.
                          f"{region.dim}D; use {[k for k, d in _DIM.items() if d == region.dim]}")
     if not (spacing > 0 and math.isfinite(spacing)):
         raise ValueError(f"spacing: {spacing!r} is not valid; expected a positive distance")
-    lo, hi = region.bounds()
+
+
+def lattice_points(region: Region, spacing: float, kind: str, margin: float = 0.0) -> np.ndarray:
+    """Lattice sites (M, dim) inside ``region`` and at least ``margin`` from its boundary.
+
+    The lattice starts at the corner ``bounds()[0] + margin`` of the region's bounding box.
+    ``kind``: ``"square"``, ``"triangular"`` (2D), ``"simple_cubic"``, ``"fcc"`` (3D).
+    More than :data:`MAX_LATTICE_SITES` sites in the bounding box are refused before
+    anything is allocated.
+    """
+    sites = lattice_site_count(region, spacing, kind, margin)
+    if sites > MAX_LATTICE_SITES:
+        raise ValueError(f"spacing: {spacing!r} would make {sites:.4g} lattice sites in the "
+                         f"region; at most {MAX_LATTICE_SITES:,} are allowed "
+                         "(MAX_LATTICE_SITES): use a larger spacing or a smaller region")
+    if sites == 0:
+        return np.zeros((0, region.dim))
+    lo, _ = region.bounds()
     cell, basis = _cell(kind, spacing)
     start = lo + margin
-    counts = np.floor((hi - margin - start) / cell).astype(np.int64) + 1
-    if np.any(counts < 1):
-        return np.zeros((0, region.dim))
+    counts = _cell_counts(region, spacing, kind, margin).astype(np.int64)
     grid = np.stack(np.meshgrid(*[np.arange(c) for c in counts], indexing="ij"), axis=-1)
     cells = start + grid.reshape(-1, region.dim) * cell
     pts = (cells[:, None, :] + basis[None, :, :]).reshape(-1, region.dim)

@@ -23,6 +23,7 @@ from typing import TextIO
 import numpy as np
 
 from grainflow.frame import Frame
+from grainflow.io.h5md import check_finite_frame
 
 __all__ = ["COLUMNS", "DumpFrame", "read_lammps_dump", "write_lammps_dump"]
 
@@ -60,7 +61,9 @@ def write_lammps_dump(
 ) -> Path:
     """Write one frame or a sequence of frames to ``path`` (appending if ``append``).
 
-    ``digits`` is the number of significant digits of floats. Returns the path.
+    ``digits`` is the number of significant digits of floats. Returns the path. A frame
+    with a non-finite value raises :class:`~grainflow.io.h5md.NonFiniteFrameError` (a
+    ValueError naming the array and particle id) before any of its lines is written.
     """
     path = Path(path)
     frames = [frames] if isinstance(frames, Frame) else frames
@@ -74,6 +77,7 @@ def _write_block(out: TextIO, frame: Frame, digits: int) -> None:
     """Write one frame as a dump block."""
     if frame.dim not in (2, 3):
         raise ValueError(f"write_lammps_dump: frame.dim={frame.dim}; only 2 and 3 are supported")
+    check_finite_frame("write_lammps_dump", frame, contacts=False)
     bounds, flags = _box_bounds(frame)
     out.write(f"ITEM: TIME\n{float(frame.time)!r}\nITEM: TIMESTEP\n{int(frame.step)}\n")
     out.write(f"ITEM: NUMBER OF ATOMS\n{frame.n}\n")

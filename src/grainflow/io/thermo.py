@@ -7,10 +7,16 @@ it also logs the state a run starts from (step 0 of a fresh run), once. The run 
 
 from __future__ import annotations
 
+import math
+import os
 import time
+import warnings
 from pathlib import Path
 
+import numpy as np
+
 from grainflow.engine.operations import ObserverContext
+from grainflow.engine.simulation import InstabilityError
 
 __all__ = ["THERMO_COLUMNS", "ThermoLog"]
 
@@ -26,12 +32,34 @@ class ThermoLog:
     anchors); ``particle_steps_per_s`` is the speed since the previous row (0 in the first).
     With ``resume_step``, rows after that step (and a torn last line) are dropped first and
     new rows are appended. A step is never logged twice.
+
+    Resuming checks the existing file first: its header must be exactly the current
+    columns and every row up to ``resume_step`` must parse (the right number of fields,
+    integer step and counts, float values, steps increasing). If not (a garbage file, a
+    binary blob, a header of another version, rows with other columns), the file is never
+    appended to and never deleted: it is moved aside to ``thermo.csv.damaged`` (or
+    ``.damaged.1``, ``.2``, ... if taken), a new file with the header is started (its first
+    row is the resumed state), and a :class:`RuntimeWarning` names both files. The new
+    file then lacks the rows before ``resume_step``; they are in the ``.damaged`` file.
+
+    A row with a non-finite value is never written: :meth:`__call__` raises
+    :class:`~grainflow.engine.simulation.InstabilityError` naming the column and the
+    particle with the largest speed.
     """
 
     def __init__(self, path: str | Path, resume_step: int | None = None) -> None:
         path = Path(path)
         self._last_step: int | None = None
-        if resume_step is not None and path.is_file():
+        self.path = path
+        self.moved_aside: Path | None = None  # where a damaged log went on resume
+        problem = _check_csv(path, resume_step) if resume_step is not None and path.is_file() else None
+        if problem is not None:
+            self.moved_aside = _move_aside(path)
+            warnings.warn(
+                f"ThermoLog: {path} cannot be continued ({problem}); it was moved to "
+                f"{self.moved_aside} and a new {path.name} starts at step {resume_step}",
+                RuntimeWarning, stacklevel=2)
+        if resume_step is not None and problem is None and path.is_file():
             self._last_step = _trim_csv(path, resume_step)
             self._file = path.open("a")
         else:
@@ -57,12 +85,78 @@ class ThermoLog:
         row = (ctx.step, repr(ctx.time), st.n, repr(st.kinetic_energy()),
                repr(st.rotational_energy()), repr(ctx.max_overlap()),
                len(ctx.contacts().i), ctx.rebuilds, f"{rate:.6g}")
+        values = (ctx.time, row[3], row[4], row[5], rate)
+        if not all(math.isfinite(float(v)) for v in values):
+            self._refuse(ctx, row)
         self._file.write(",".join(map(str, row)) + "\n")
         self._file.flush()
         self._last_step = ctx.step
 
+    def _refuse(self, ctx: ObserverContext, row: tuple) -> None:
+        """Raise InstabilityError for a row with a non-finite value (nothing is written)."""
+        column = next(name for name, value in zip(THERMO_COLUMNS, row)
+                      if not math.isfinite(float(value)))
+        v = np.asarray(ctx.state.v)
+        particle = -1
+        if len(v):
+            with np.errstate(all="ignore"):  # speeds near 1e300 m/s: scale before squaring
+                scale = np.abs(v).max(axis=1, keepdims=True)
+                speed = scale[:, 0] * np.sqrt(((v / np.where(scale > 0, scale, 1.0)) ** 2).sum(axis=1))
+            speed = np.where(np.isfinite(v).all(axis=1), speed, np.inf)  # NaN/inf first
+            particle = int(np.asarray(ctx.state.id)[int(np.argmax(speed))])
+        raise InstabilityError(
+            ctx.step, particle,
+            f"thermo column {column!r} is {row[THERMO_COLUMNS.index(column)]} (particle id "
+            f"{particle} has the largest speed); the row was not written to {self.path}")
+
     def close(self) -> None:
         self._file.close()
+
+
+def _check_csv(path: Path, step: int) -> str | None:
+    """Why ``path`` cannot be continued at ``step`` (None if it can): header and rows up to ``step``.
+
+    A torn last line (a crash mid-write) is not a problem: :func:`_trim_csv` drops it.
+    """
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        return "it is not text (a binary blob?)"
+    lines = text.splitlines(keepends=True)
+    header = ",".join(THERMO_COLUMNS)
+    if not lines or lines[0].rstrip("\r\n") != header:
+        got = lines[0].rstrip("\r\n")[:80] if lines else "nothing (empty file)"
+        return f"its header is {got!r}, expected {header!r}"
+    last = None
+    for number, line in enumerate(lines[1:], start=2):
+        fields = line.rstrip("\n").split(",")
+        if not line.endswith("\n") and number == len(lines):
+            break  # a torn last line: trimmed below
+        try:
+            if len(fields) != len(THERMO_COLUMNS):
+                raise ValueError(f"{len(fields)} fields, expected {len(THERMO_COLUMNS)}")
+            row_step = int(fields[0])
+            for name, value in zip(THERMO_COLUMNS[1:], fields[1:]):
+                int(value) if name in ("N", "contacts", "rebuilds") else float(value)
+        except ValueError as err:
+            return f"line {number} does not parse ({err})"
+        if row_step > step:
+            break
+        if last is not None and row_step <= last:
+            return f"line {number}: step {row_step} does not follow step {last}"
+        last = row_step
+    return None
+
+
+def _move_aside(path: Path) -> Path:
+    """Rename ``path`` to the first free ``<name>.damaged[.i]`` and return the new path."""
+    target = path.with_name(path.name + ".damaged")
+    i = 0
+    while target.exists():
+        i += 1
+        target = path.with_name(f"{path.name}.damaged.{i}")
+    os.replace(path, target)
+    return target
 
 
 def _trim_csv(path: Path, step: int) -> int | None:

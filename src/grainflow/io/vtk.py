@@ -18,6 +18,7 @@ from typing import Literal
 import numpy as np
 
 from grainflow.frame import Frame
+from grainflow.io.h5md import check_finite_frame
 
 __all__ = ["VtkSeries", "write_pvd", "write_vtp"]
 
@@ -33,10 +34,13 @@ def write_vtp(path: str | os.PathLike[str], frame: Frame, *, encoding: Encoding 
     """Write ``frame`` as a VTK XML PolyData file; returns the path.
 
     ``encoding="base64"`` stores arrays as inline base64 binary (little-endian, UInt64
-    byte-count header), ``"ascii"`` as text.
+    byte-count header), ``"ascii"`` as text. A frame with a non-finite value raises
+    :class:`~grainflow.io.h5md.NonFiniteFrameError` (a ValueError naming the array and
+    particle id) and nothing is written.
     """
     if encoding not in ("base64", "ascii"):
         raise ValueError(f"write_vtp: encoding={encoding!r}; use 'base64' or 'ascii'")
+    check_finite_frame(f"write_vtp({path})", frame, contacts=False)
     root = ET.Element(
         "VTKFile", type="PolyData", version="1.0", byte_order="LittleEndian", header_type="UInt64"
     )

@@ -92,6 +92,14 @@ class ContactLaw:
         return int(self.table.shape[0])
 
     @property
+    def cohesive(self) -> bool:
+        """Whether some type pair attracts: the cohesion sub-model has a parameter that is
+        not zero (``cohesion_force = 0`` disables the constant-force model)."""
+        first = self.column_of["cohesion"]
+        columns = slice(first, first + len(self.parts["cohesion"].columns()))
+        return bool(np.any(self.table[:, :, columns] != 0.0))
+
+    @property
     def evaluator(self) -> Any:
         """The compiled pair evaluator of this composition."""
         if self._evaluator is None:

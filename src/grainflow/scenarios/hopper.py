@@ -52,7 +52,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 
 from grainflow.scenarios import Scenario, register
 from grainflow.scenarios.hopper_reinsertion import HopperReinsertion
@@ -83,36 +83,48 @@ EVENTS = "events.csv"
 
 
 class HopperSection(BaseModel):
-    """The ``[hopper]`` table (seed units: sigma_avg = g = rho = 1, see module docstring)."""
+    """The ``[hopper]`` table (seed units: sigma_avg = g = rho = 1, see module docstring).
+
+    Counts are strict integers (a string such as ``"1600"`` is refused); every number but
+    ``lam`` is finite (``E_sp = inf`` is refused here, naming ``hopper.E_sp``).
+    """
 
     model_config = ConfigDict(extra="forbid", validate_default=True)
 
-    n: int | None = Field(None, ge=2, description="number of grains; default 1600 (2D), 6400 (3D)")
-    orifice_width: float = Field(6.0, gt=0, description="w / sigma_avg (3D: orifice diameter)")
-    width: float | None = Field(None, gt=0, description="W / sigma_avg: side-wall separation "
-                                "(2D, default 50 = 60 sigma_s) or cylinder diameter (3D, 25)")
+    n: StrictInt | None = Field(None, ge=2,
+                                description="number of grains; default 1600 (2D), 6400 (3D)")
+    orifice_width: float = Field(6.0, gt=0, allow_inf_nan=False,
+                                 description="w / sigma_avg (3D: orifice diameter)")
+    width: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                description="W / sigma_avg: side-wall separation (2D, default "
+                                "50 = 60 sigma_s) or cylinder diameter (3D, 25)")
     theta_w: float = Field(90.0, gt=0, le=90, description="2D bottom angle in degrees (90 flat)")
-    E_sp: float = Field(100.0, gt=0, description="pair stiffness eps_sp/(g rho sigma_avg^(d+1))")
-    E_w: float = Field(1.0e4, gt=0, description="wall stiffness eps_w/(g rho sigma_avg^(d+1))")
+    E_sp: float = Field(100.0, gt=0, allow_inf_nan=False,
+                        description="pair stiffness eps_sp/(g rho sigma_avg^(d+1))")
+    E_w: float = Field(1.0e4, gt=0, allow_inf_nan=False,
+                       description="wall stiffness eps_w/(g rho sigma_avg^(d+1))")
     lam: float = Field(math.inf, ge=0, description="lambda = zeta/mu; 0 and inf are the "
                        "seed's limits (write inf in TOML)")
-    zeta: float | None = Field(None, ge=0, description="explicit drag (overrides lam)")
-    drag_factor: float = Field(DRAG_FACTOR, gt=0, description="drag force on a grain = "
+    zeta: float | None = Field(None, ge=0, allow_inf_nan=False,
+                               description="explicit drag (overrides lam)")
+    drag_factor: float = Field(DRAG_FACTOR, gt=0, allow_inf_nan=False,
+                               description="drag force on a grain = "
                                "-drag_factor * zeta * v. Seed eq. (5) is illegible; 16 = N_v "
                                "(the DP model's per-vertex drag, eq. 11, summed over its 16 "
                                "vertices) reproduces the seed's flow rates, 1 is a literal "
                                "-zeta v (docs/hopper_study.md)")
-    mu: float | None = Field(None, ge=0, description="explicit kinetic friction (overrides lam)")
+    mu: float | None = Field(None, ge=0, allow_inf_nan=False,
+                             description="explicit kinetic friction (overrides lam)")
     fill_fraction: float = Field(0.45, gt=0, lt=0.6, description="packing fraction of the "
                                  "initial random fill (2D; 3D uses 0.6 of it)")
-    reinsert_depth: float = Field(2.0, gt=0, description="reinsert after falling this many own "
+    reinsert_depth: float = Field(2.0, gt=0, allow_inf_nan=False,
+                                  description="reinsert after falling this many own "
                                   "diameters below the orifice (seed: 2)")
-    reinsert_every: int = Field(10, ge=1, description="steps between crossing checks")
-    reinsert_bulk_contacts: int | None = Field(None, ge=0, description="a reinserted grain's "
-                                               "partner must touch or nearly touch this many "
-                                               "grains (a 'bulk particle' of the seed); "
-                                               "default d + 1; 0: the highest grain of the "
-                                               "column (docs/hopper_study.md)")
+    reinsert_every: StrictInt = Field(10, ge=1, description="steps between crossing checks")
+    reinsert_bulk_contacts: StrictInt | None = Field(
+        None, ge=0, description="a reinserted grain's partner must touch or nearly touch this "
+        "many grains (a 'bulk particle' of the seed); default d + 1; 0: the highest grain of "
+        "the column (docs/hopper_study.md)")
     dt_fraction: float = Field(0.05, gt=0, le=0.25, description="dt = dt_fraction * t_c (pairs "
                                "and walls) unless run.dt is given")
 

@@ -20,7 +20,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import IO, Any
 
-from grainflow.sweep.spec import Point
+from grainflow.sweep.spec import Point, SweepError
 
 CATALOG_NAME = "catalog.sqlite"
 STATUSES = ("pending", "running", "done", "failed")
@@ -78,27 +78,123 @@ def run_subdir(point_id: str) -> str:
     return f"runs/{point_id}"
 
 
-class Catalog:
-    """SQLite catalog of a sweep directory. Use as a context manager or call :meth:`close`."""
+class CatalogError(SweepError):
+    """The catalog file cannot be used (damaged, not a catalog, not writable)."""
 
-    def __init__(self, path: str | Path) -> None:
+
+def damaged_catalog_message(path: Path, problem: str) -> str:
+    """What is wrong with a catalog and how to recover: the run directories are intact."""
+    sweepdir = path.parent
+    return (
+        f"{path}: the sweep catalog is damaged ({problem}). The run directories in "
+        f"{sweepdir / 'runs'} are not affected. Rebuild the catalog from them with "
+        f"'grainflow sweep SWEEP.toml -o {sweepdir} --rebuild-catalog' (the damaged file is "
+        "moved aside, finished runs are not repeated, only their analyses), or move "
+        f"{path.name} away yourself"
+    )
+
+
+def move_aside(path: Path) -> Path:
+    """Rename a damaged catalog (and its -wal/-shm files) to ``<name>.damaged[-N]``."""
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S")
+    target = path.with_name(f"{path.name}.damaged-{stamp}")
+    n = 1
+    while target.exists():
+        n += 1
+        target = path.with_name(f"{path.name}.damaged-{stamp}-{n}")
+    for suffix in ("-wal", "-shm"):
+        side = path.with_name(path.name + suffix)
+        if side.exists():
+            side.rename(target.with_name(target.name + suffix))
+    if path.exists():
+        path.rename(target)
+    return target
+
+
+class Catalog:
+    """SQLite catalog of a sweep directory. Use as a context manager or call :meth:`close`.
+
+    Opening checks the file: a damaged or foreign file raises :class:`CatalogError` (a
+    one-line reason and the way out), as does a catalog that cannot be written;
+    ``readonly=True`` opens an existing catalog for reading only (``sweep-status``).
+    """
+
+    def __init__(self, path: str | Path, *, readonly: bool = False) -> None:
         self.path = Path(path)
-        self._conn = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
-        self._conn.execute("PRAGMA journal_mode=WAL")
-        self._conn.execute("PRAGMA synchronous=NORMAL")
-        with self._transaction():
-            for statement in _SCHEMA.split(";"):
-                if statement.strip():
-                    self._conn.execute(statement)
-            self._conn.execute(
-                "INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', ?)",
-                (SCHEMA_VERSION,),
+        self._conn: sqlite3.Connection | None = None
+        existed = self.path.exists()
+        if existed and self.path.is_dir():
+            raise CatalogError(f"{self.path} is a directory, not a sweep catalog; move it away")
+        if existed and self.path.stat().st_size == 0 and not _has_content(self.path, "-wal"):
+            raise CatalogError(damaged_catalog_message(self.path, "the file is empty (0 bytes)"))
+        try:
+            if readonly:
+                uri = self.path.resolve().as_uri() + "?mode=ro"
+                self._conn = sqlite3.connect(uri, uri=True, timeout=30.0, isolation_level=None)
+                self._check()
+                return
+            self._conn = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
+            self._conn.execute("PRAGMA journal_mode=WAL")
+            self._conn.execute("PRAGMA synchronous=NORMAL")
+            if existed:
+                self._check()
+            with self._transaction():
+                for statement in _SCHEMA.split(";"):
+                    if statement.strip():
+                        self._conn.execute(statement)
+                self._conn.execute(
+                    "INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', ?)",
+                    (SCHEMA_VERSION,),
+                )
+        except sqlite3.Error as exc:
+            self.close()
+            raise self.error(exc) from None
+        except CatalogError:
+            self.close()
+            raise
+
+    def _check(self) -> None:
+        """Raise CatalogError unless the file is a readable catalog of this version."""
+        assert self._conn is not None
+        result = self._conn.execute("PRAGMA quick_check").fetchone()[0]
+        if result != "ok":
+            raise CatalogError(damaged_catalog_message(self.path, f"integrity check: {result}"))
+        tables = {r[0] for r in self._conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        if tables and not {"points", "meta"} <= tables:
+            raise CatalogError(damaged_catalog_message(
+                self.path, f"an SQLite file without the catalog's tables (has {sorted(tables)})"))
+        if "points" in tables:
+            columns = {r[1] for r in self._conn.execute("PRAGMA table_info(points)")}
+            missing = {"point_id", "params", "status", "summary"} - columns
+            if missing:
+                raise CatalogError(damaged_catalog_message(
+                    self.path, f"table 'points' lacks the columns {sorted(missing)}"))
+
+    def error(self, exc: sqlite3.Error) -> CatalogError:
+        """A CatalogError saying what an SQLite error means for this catalog."""
+        text = str(exc)
+        if isinstance(exc, sqlite3.OperationalError) and (
+            "readonly" in text or "read-only" in text or "unable to open" in text
+            or "disk I/O" in text
+        ):
+            return CatalogError(
+                f"{self.path}: cannot write the sweep catalog ({text}); make "
+                f"{self.path.parent} and the files in it writable, or choose another "
+                "sweep directory"
             )
+        if isinstance(exc, sqlite3.OperationalError) and "database is locked" in text:
+            return CatalogError(
+                f"{self.path}: the catalog is locked by another process ({text}); wait for it "
+                "and try again"
+            )
+        if isinstance(exc, sqlite3.OperationalError) and "disk is full" in text:
+            return CatalogError(f"{self.path}: {text}; free some space and run the sweep again")
+        return CatalogError(damaged_catalog_message(self.path, text))
 
     @classmethod
-    def in_dir(cls, sweepdir: str | Path) -> Catalog:
-        """Open (creating if needed) the catalog of a sweep directory."""
-        return cls(Path(sweepdir) / CATALOG_NAME)
+    def in_dir(cls, sweepdir: str | Path, *, readonly: bool = False) -> Catalog:
+        """Open (creating if needed, unless ``readonly``) the catalog of a sweep directory."""
+        return cls(Path(sweepdir) / CATALOG_NAME, readonly=readonly)
 
     def __enter__(self) -> Catalog:
         return self
@@ -107,7 +203,9 @@ class Catalog:
         self.close()
 
     def close(self) -> None:
-        self._conn.close()
+        if self._conn is not None:
+            self._conn.close()
+            self._conn = None
 
     def _transaction(self) -> _Transaction:
         """``with self._transaction():`` runs the block as one IMMEDIATE transaction."""
@@ -218,6 +316,14 @@ class Catalog:
 
     def _count(self) -> int:
         return self._conn.execute("SELECT COUNT(*) FROM points").fetchone()[0]
+
+
+def _has_content(path: Path, suffix: str) -> bool:
+    side = path.with_name(path.name + suffix)
+    try:
+        return side.stat().st_size > 0
+    except OSError:
+        return False
 
 
 class _Transaction:

@@ -31,6 +31,7 @@ import os
 import queue
 import shutil
 import signal
+import sqlite3
 import threading
 import time
 import traceback
@@ -46,8 +47,20 @@ from distributed import Client, Future, LocalCluster, as_completed, get_worker
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from grainflow.sweep.catalog import Catalog, now
-from grainflow.sweep.spec import Point, SweepSpec
+from grainflow.sweep.catalog import (
+    CATALOG_NAME,
+    Catalog,
+    CatalogError,
+    move_aside,
+    now,
+)
+from grainflow.sweep.spec import (
+    DEFAULT_RUNNER,
+    Point,
+    SweepError,
+    SweepSpec,
+    validate_point_configs,
+)
 
 #: Environment of LocalCluster workers: one compute thread each.
 WORKER_ENV = {
@@ -61,10 +74,6 @@ LOCK_FILE = ".sweep.lock"
 SWEEP_RECORD = "sweep.toml"
 _POLL_SECONDS = 0.2
 PROGRESS_MODES = ("auto", "rich", "plain")
-
-
-class SweepError(RuntimeError):
-    """A sweep cannot start (busy directory, unreachable scheduler, unknown runner...)."""
 
 
 # ---------------------------------------------------------------------------------------
@@ -110,16 +119,21 @@ def run_point(task: PointTask) -> dict[str, Any]:
     started = time.perf_counter()
     worker = _announce_start(task)
     rundir = Path(task.rundir)
+    notes: list[str] = []
     try:
         if not _run_completed(rundir, task.point_id):
-            if rundir.exists():
-                shutil.rmtree(rundir)
-            resolve_callable(task.runner)(copy.deepcopy(task.config), rundir)
+            _run_or_resume(task, rundir, notes)
             _write_point_file(rundir, task, time.perf_counter() - started)
         summary = run_analyses(rundir, task.analyses)
         status, error = "done", None
+    except PointFailed as exc:  # an expected failure: its message says it all
+        status, summary, error = "failed", {}, f"{type(exc).__name__}: {exc}"
     except Exception:  # the point failed; the record carries the traceback
         status, summary, error = "failed", {}, traceback.format_exc()
+    if notes and status == "done":
+        error = "note: " + " ".join(notes)
+    elif notes:
+        error = f"note: {' '.join(notes)}\n{error}"
     return {
         "point_id": task.point_id,
         "status": status,
@@ -128,6 +142,124 @@ def run_point(task: PointTask) -> dict[str, Any]:
         "wall_time": time.perf_counter() - started,
         "worker": worker,
     }
+
+
+class PointFailed(RuntimeError):
+    """A point that cannot succeed as it is (recorded without a traceback)."""
+
+
+def _run_or_resume(task: PointTask, rundir: Path, notes: list[str]) -> None:
+    """Run the point, continuing what an earlier attempt left in ``rundir`` when possible.
+
+    With grainflow's own runner, an earlier attempt of the same configuration is
+
+    * finished (``summary.json`` says so; only the point file was missing): kept as it is;
+    * interrupted or killed (a checkpoint, no finished summary): resumed from its checkpoint
+      with :func:`grainflow.runner.resume_run`, so no step is computed twice;
+    * unstable: not run again (it would fail the same way); the point fails with the reason
+      and the run directory is kept for diagnosis;
+    * unreadable (damaged checkpoint, config or summary): the run directory is moved aside
+      to ``<point_id>.damaged-<time>`` (nothing is deleted) and the point runs from step 0,
+      which gives the same result a resume would have given; ``notes`` says so.
+
+    A run directory written for another configuration (the base config changed since), or
+    one without a checkpoint (killed before its first step), or any run directory of another
+    runner, is removed and the point runs from scratch, as before.
+    """
+    runner = resolve_callable(task.runner)
+    if rundir.exists() and task.runner == DEFAULT_RUNNER:
+        state, reason = _previous_attempt(rundir, task.config)
+        if state == "finished":
+            return
+        if state == "unstable":
+            raise PointFailed(
+                f"an earlier attempt went unstable and is not resumed ({reason}); its run "
+                f"directory {rundir} is kept for diagnosis. Change the configuration (e.g. a "
+                "smaller run.dt) and run the sweep again, or delete that directory to run the "
+                "point again unchanged"
+            )
+        if state == "resume":
+            from grainflow.runner import RunDirError, resume_run
+
+            try:
+                resume_run(rundir)
+                return
+            except RunDirError as exc:  # the checkpoint turned out to be unreadable
+                state, reason = "damaged", str(exc)
+        if state == "damaged":
+            moved = _move_damaged(rundir)
+            notes.append(
+                f"the earlier attempt's run directory could not be resumed ({reason}); it was "
+                f"moved to {moved} and the point ran again from step 0"
+            )
+    if rundir.exists():
+        shutil.rmtree(rundir)
+    runner(copy.deepcopy(task.config), rundir)
+
+
+def _previous_attempt(rundir: Path, config: dict[str, Any]) -> tuple[str, str]:
+    """Classify what an earlier attempt of grainflow's runner left in ``rundir``.
+
+    Returns ``(state, reason)`` with state ``"finished"``, ``"resume"``, ``"unstable"``,
+    ``"damaged"`` or ``"stale"`` (start again from scratch: nothing worth keeping).
+    """
+    import tomllib
+
+    from grainflow.runner import CHECKPOINT, CONFIG, checkpoint_step, read_summary
+
+    has_checkpoint = (rundir / CHECKPOINT).is_file()
+    try:
+        written = tomllib.loads((rundir / CONFIG).read_text())
+    except FileNotFoundError:
+        if not has_checkpoint:
+            return "stale", "killed before it started"
+        return "damaged", f"{CONFIG} is missing"
+    except (OSError, ValueError) as exc:
+        return "damaged", f"{CONFIG} is unreadable: {exc}"
+    if not _same_config(written, config):
+        return "stale", "written for another configuration"
+    try:
+        summary = read_summary(rundir)
+    except (OSError, ValueError):
+        summary = None  # a summary cut short by a kill: the checkpoint decides
+    status = summary.get("status") if isinstance(summary, dict) else None
+    if status == "unstable":  # with or without a healthy checkpoint
+        return "unstable", str(summary.get("message") or "summary.json says unstable")
+    if not has_checkpoint:
+        return "stale", "no checkpoint"  # killed before its first checkpoint (step 0)
+    try:
+        step = checkpoint_step(rundir / CHECKPOINT)
+    except Exception as exc:  # noqa: BLE001 - numpy/zipfile raise many kinds for bad files
+        return "damaged", f"checkpoint unreadable: {type(exc).__name__}: {exc}"
+    if step is None:
+        return "damaged", "checkpoint unreadable"
+    if status == "finished" and step == summary.get("step"):
+        return "finished", ""
+    return "resume", f"checkpoint at step {step}"
+
+
+def _same_config(written: dict[str, Any], config: dict[str, Any]) -> bool:
+    """Whether ``written`` (a run's config.toml) is what ``config`` resolves to."""
+    import tomllib
+
+    from grainflow.config.schema import load_config, resolved_dict
+
+    try:
+        resolved = tomllib.loads(tomli_w.dumps(resolved_dict(load_config(copy.deepcopy(config)))))
+    except Exception:  # noqa: BLE001 - an invalid config: the runner will say why
+        return False
+    return resolved == written
+
+
+def _move_damaged(rundir: Path) -> Path:
+    stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
+    target = rundir.with_name(f"{rundir.name}.damaged-{stamp}")
+    n = 1
+    while target.exists():
+        n += 1
+        target = rundir.with_name(f"{rundir.name}.damaged-{stamp}-{n}")
+    rundir.rename(target)
+    return target
 
 
 def run_analyses(rundir: Path, analyses: tuple[str, ...] | list[str]) -> dict[str, float]:
@@ -203,6 +335,7 @@ def run_sweep(
     progress: str = "auto",
     progress_interval: float = 30.0,
     console: Console | None = None,
+    rebuild_catalog: bool = False,
 ) -> SweepResult:
     """Run every point of ``spec`` not yet done in ``sweepdir`` and record it in the catalog.
 
@@ -214,6 +347,13 @@ def run_sweep(
     n_workers : LocalCluster size (default: one worker per core); ignored with ``scheduler``.
     progress : ``"rich"`` (progress bar), ``"plain"`` (a status line every
         ``progress_interval`` seconds) or ``"auto"`` (rich on a terminal).
+    rebuild_catalog : if the catalog is damaged, move it aside and start a new one; the
+        points whose runs finished are not run again (only their analyses).
+
+    Before anything starts, every point's configuration is validated (grainflow's runner),
+    relative file paths are made absolute (against the file that wrote them), and the sweep
+    directory is checked to be writable; problems raise :class:`SweepFileError` or
+    :class:`SweepError`.
 
     Ctrl-C (or SIGTERM) stops the sweep: running points go back to ``pending``,
     the cluster is closed and KeyboardInterrupt is re-raised. Running the same
@@ -227,8 +367,9 @@ def run_sweep(
     resolve_callable(spec.runner)
     for ref in spec.analyses:
         resolve_callable(ref)
-    sweepdir.mkdir(parents=True, exist_ok=True)
-    with _exclusive(sweepdir), Catalog.in_dir(sweepdir) as catalog:
+    validate_point_configs(spec, points, where=f"sweep {spec.name!r}: ")
+    _prepare_sweepdir(sweepdir)
+    with _exclusive(sweepdir), _open_catalog(sweepdir, rebuild_catalog, console) as catalog:
         _record_sweep(spec, sweepdir, catalog, console)
         catalog.register(points)
         catalog.reset_running()
@@ -259,7 +400,7 @@ def _tasks(spec: SweepSpec, points: list[Point], sweepdir: Path) -> list[PointTa
         PointTask(
             point_id=p.point_id,
             params={**p.overrides, p.seed_field: p.seed},
-            config=p.config(spec.base),
+            config=spec.point_config(p),
             rundir=str(sweepdir / "runs" / p.point_id),
             runner=spec.runner,
             analyses=tuple(spec.analyses),
@@ -382,6 +523,64 @@ def _label(params: dict[str, Any]) -> str:
     return " ".join(f"{k}={v!r}" for k, v in params.items())
 
 
+def _prepare_sweepdir(sweepdir: Path) -> None:
+    """Create the sweep directory and check that files can be written in it and in runs/."""
+    fix = (
+        "make it writable (e.g. chmod u+w) or choose another sweep directory with -o"
+    )
+    try:
+        sweepdir.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise SweepError(f"{sweepdir} exists and is not a directory; choose another sweep "
+                         "directory with -o") from None
+    except OSError as exc:
+        raise SweepError(f"cannot create the sweep directory {sweepdir} ({exc.strerror or exc}); "
+                         "choose another with -o") from None
+    if not sweepdir.is_dir():
+        raise SweepError(f"{sweepdir} exists and is not a directory; choose another sweep "
+                         "directory with -o")
+    for folder in (sweepdir, sweepdir / "runs"):
+        if not folder.is_dir():
+            continue
+        probe = folder / f".write-test-{uuid.uuid4().hex[:8]}"
+        try:
+            probe.write_text("")
+            probe.unlink()
+        except OSError as exc:
+            raise SweepError(
+                f"{folder} is not writable ({exc.strerror or exc}); {fix}"
+            ) from None
+    runs = sweepdir / "runs"
+    if runs.exists() and not runs.is_dir():
+        raise SweepError(f"{runs} is not a directory; move it away")
+
+
+@contextmanager
+def _open_catalog(sweepdir: Path, rebuild: bool, console: Console) -> Iterator[Catalog]:
+    """The sweep's catalog; a damaged one is moved aside first when ``rebuild``.
+
+    SQLite errors while the sweep runs (disk full, a file changed underneath) become
+    :class:`CatalogError` naming the file."""
+    path = sweepdir / CATALOG_NAME
+    try:
+        catalog = Catalog(path)
+    except CatalogError:
+        if not rebuild:
+            raise
+        moved = move_aside(path)
+        console.out(f"the damaged catalog was moved to {moved}; rebuilding it from the run "
+                    f"directories in {sweepdir / 'runs'}")
+        catalog = Catalog(path)
+    else:
+        if rebuild:
+            console.out(f"{path} is readable; nothing to rebuild")
+    try:
+        with catalog:
+            yield catalog
+    except sqlite3.Error as exc:
+        raise catalog.error(exc) from None
+
+
 @contextmanager
 def _exclusive(sweepdir: Path) -> Iterator[None]:
     """Hold a lock on the sweep directory so two sweeps cannot drive it at once."""
@@ -402,6 +601,7 @@ def _record_sweep(spec: SweepSpec, sweepdir: Path, catalog: Catalog, console: Co
     """Save the resolved sweep file; warn if the base config changed since the last run."""
     # python mode: JSON mode would turn lambda = inf into null, which TOML cannot hold
     record = spec.model_dump(mode="python", exclude_none=True)
+    record["base"] = spec.resolved_base()  # relative file paths would not resolve from here
     (sweepdir / SWEEP_RECORD).write_text(tomli_w.dumps(record))
     base = json.dumps(spec.base, sort_keys=True, default=str)
     previous = catalog.get_meta("base_config")

@@ -35,7 +35,15 @@ from collections.abc import Iterable
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 DEFAULT_RUNNER = "grainflow.runner:run_config"
 _DOTTED_CALLABLE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
@@ -44,6 +52,15 @@ _SIGNIFICANT_DIGITS = 12  # grid values are rounded to this many digits to drop 
 
 class SweepFileError(ValueError):
     """A sweep file (or its base config) is invalid; the message says where and how to fix it."""
+
+    exit_code = 2
+
+
+class SweepError(RuntimeError):
+    """A sweep cannot start (busy or unwritable directory, damaged catalog, unreachable
+    scheduler, unknown runner...); the message says what to do. ``exit_code`` is the CLI's."""
+
+    exit_code = 2
 
 
 def _check_dotted_callable(value: str) -> str:
@@ -65,8 +82,8 @@ class Axis(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     values: list[Any] | None = None
-    start: float | None = None
-    stop: float | None = None
+    start: int | float | None = None
+    stop: int | float | None = None
     num: int | None = Field(default=None, ge=1)
     scale: Literal["linear", "log"] = "linear"
 
@@ -103,11 +120,16 @@ class Axis(BaseModel):
         return self
 
     def resolve(self) -> list[Any]:
-        """The list of values, ranges expanded and rounded to 12 significant digits."""
+        """The list of values, ranges expanded and rounded to 12 significant digits; a range
+        between integers whose values are all whole gives integers (counts stay counts)."""
         if self.values is not None:
             return list(self.values)
         spacing = np.geomspace if self.scale == "log" else np.linspace
-        return [_round(float(v)) for v in spacing(self.start, self.stop, self.num)]
+        values = [_round(float(v)) for v in spacing(self.start, self.stop, self.num)]
+        if (isinstance(self.start, int) and isinstance(self.stop, int)
+                and all(v.is_integer() for v in values)):
+            return [int(v) for v in values]
+        return values
 
 
 def _round(value: float) -> float:
@@ -129,6 +151,11 @@ class SweepSpec(BaseModel):
     seed_field: str = "run.seed"
     runner: str = DEFAULT_RUNNER
     analyses: list[str] = Field(default_factory=list)
+
+    # folders that relative paths are resolved against (None: the working directory of the
+    # driving process): the base config's file for ``base``, the sweep file for overrides
+    _base_dir: Path | None = PrivateAttr(None)
+    _overrides_dir: Path | None = PrivateAttr(None)
 
     @field_validator("base", mode="before")
     @classmethod
@@ -161,8 +188,9 @@ class SweepSpec(BaseModel):
     def _check_consistency(self) -> SweepSpec:
         if self.seeds is not None and {"replicates", "seed_start"} & self.model_fields_set:
             raise ValueError("give either 'seeds' or 'replicates'/'seed_start', not both")
-        for path in self.overrides:
-            _check_override_path(self.base, path)
+        problems = [p for p in (_override_path_problem(self.base, path) for path in self.overrides) if p]
+        if problems:
+            raise ValueError("; ".join(problems))
         _check_no_nesting([*self.overrides, self.seed_field])
         _check_seed_field(self.base, self.seed_field)
         if self.mode == "zip":
@@ -174,6 +202,17 @@ class SweepSpec(BaseModel):
                 )
         self.points()  # rejects repeated points
         return self
+
+    def point_config(self, point: Point) -> dict[str, Any]:
+        """The config a point runs: :meth:`Point.config` with relative file paths made
+        absolute against the folder of the file that wrote them (see :func:`absolute_paths`)."""
+        config = absolute_paths(self.base, self._base_dir)
+        overrides = {k: absolute_paths(v, self._overrides_dir) for k, v in point.overrides.items()}
+        return Point(overrides, point.seed_field, point.seed).config(config)
+
+    def resolved_base(self) -> dict[str, Any]:
+        """The base config with its relative file paths made absolute."""
+        return absolute_paths(self.base, self._base_dir)
 
     def seed_values(self) -> list[int]:
         """The seeds of the replicates, in order."""
@@ -273,16 +312,42 @@ def set_dotted(config: dict[str, Any], path: str, value: Any) -> None:
     node[leaf] = value
 
 
-def _check_override_path(base: dict[str, Any], path: str) -> None:
+def absolute_paths(value: Any, folder: Path | None) -> Any:
+    """A deep copy of ``value`` in which every relative path string naming an existing file
+    or folder under ``folder`` (default: the working directory) is made absolute.
+
+    A config's relative paths (a LAMMPS data file, ...) mean "next to the file that wrote
+    them"; a worker resolves them against its own working directory, which on a cluster is
+    anywhere. Only strings that name something that exists are changed, so names, units
+    and other values pass unchanged.
+    """
+    folder = Path.cwd() if folder is None else folder
+    if isinstance(value, dict):
+        return {k: absolute_paths(v, folder) for k, v in value.items()}
+    if isinstance(value, list):
+        return [absolute_paths(v, folder) for v in value]
+    if isinstance(value, str) and value and "\n" not in value and len(value) < 4096:
+        path = Path(value).expanduser()
+        if not path.is_absolute():
+            try:
+                if (folder / path).exists():
+                    return str((folder / path).resolve())
+            except (OSError, ValueError):  # a name too long for the filesystem, a NUL...
+                pass
+    return copy.deepcopy(value)
+
+
+def _override_path_problem(base: dict[str, Any], path: str) -> str | None:
     """An override must name a field that the base config sets (catches typos)."""
     try:
         get_dotted(base, path)
     except KeyError:
-        raise ValueError(
+        return (
             f"override {path!r} is not a field of the base config; "
             f"{_nearby_keys(base, path)} "
             "(to sweep a field the base config leaves at its default, add it to the base config)"
-        ) from None
+        )
+    return None
 
 
 def _nearby_keys(base: dict[str, Any], path: str) -> str:
@@ -333,7 +398,52 @@ def load_sweep(path: str | Path) -> SweepSpec:
         raise SweepFileError(f"{path}: sweep file not found") from None
     except tomllib.TOMLDecodeError as exc:
         raise SweepFileError(f"{path}: not valid TOML: {exc}") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise SweepFileError(f"{path}: cannot read the sweep file ({exc})") from None
     return parse_sweep(data, source=path)
+
+
+def validate_point_configs(spec: SweepSpec, points: list[Point], where: str = "") -> None:
+    """Check every point's config with grainflow's config schema before anything runs.
+
+    Only for sweeps run by grainflow's own runner (other runners take other configs).
+    Raises :class:`SweepFileError` listing every invalid point, with its parameters, the
+    config field and what is wrong; points sharing the same problems are listed once.
+    """
+    if spec.runner != DEFAULT_RUNNER or not points:
+        return
+    from grainflow.config.schema import ConfigError, load_config
+
+    problems: dict[tuple[str, ...], list[Point]] = {}
+    for point in points:
+        try:
+            load_config(spec.point_config(point))
+        except ConfigError as exc:
+            problems.setdefault(tuple(exc.messages), []).append(point)
+        except Exception as exc:  # noqa: BLE001 - a validator that fails unexpectedly
+            problems.setdefault((f"{type(exc).__name__}: {exc}",), []).append(point)
+    if not problems:
+        return
+    bad = sum(len(p) for p in problems.values())
+    lines = [
+        f"{where}{bad} of {len(points)} point(s) have an invalid configuration; nothing was "
+        "run. Fix the base config or the [overrides] values:"
+    ]
+    for messages, group in problems.items():
+        text = "; ".join(messages)
+        if len(group) == len(points) and len(points) > 1:
+            lines.append(f"  - every point (the base config): {text}")
+            continue
+        by_values: dict[str, list[int]] = {}
+        for point in group:
+            label = " ".join(f"{k}={v!r}" for k, v in point.overrides.items())
+            by_values.setdefault(label, []).append(point.seed)
+        for label, seeds in by_values.items():
+            seed_text = f"{spec.seed_field}={', '.join(map(str, seeds))}"
+            lines.append(f"  - point {label + ' ' if label else ''}({seed_text}): {text}")
+    if len(lines) > 41:
+        lines = [*lines[:41], f"  ... and {len(lines) - 41} more"]
+    raise SweepFileError("\n".join(lines))
 
 
 def parse_sweep(data: dict[str, Any], source: Path | None = None) -> SweepSpec:
@@ -342,20 +452,28 @@ def parse_sweep(data: dict[str, Any], source: Path | None = None) -> SweepSpec:
     where = f"{source}: " if source else ""
     if source is not None:
         data.setdefault("name", source.stem)
+    sweep_dir = Path(source).resolve().parent if source is not None else None
+    base_dir = sweep_dir
     if isinstance(data.get("base"), str):
-        data["base"] = _load_base(data["base"], source, where)
+        data["base"], base_dir = _load_base(data["base"], source, where)
     try:
-        return SweepSpec.model_validate(data)
+        spec = SweepSpec.model_validate(data)
     except ValidationError as exc:
         raise SweepFileError(where + format_validation_error(exc)) from None
+    spec._base_dir, spec._overrides_dir = base_dir, sweep_dir
+    return spec
 
 
-def _load_base(name: str, source: Path | None, where: str) -> dict[str, Any]:
-    base_path = Path(name)
+def _load_base(name: str, source: Path | None, where: str) -> tuple[dict[str, Any], Path | None]:
+    base_path = Path(name).expanduser()
     if not base_path.is_absolute() and source is not None:
         base_path = source.parent / base_path
     try:
-        return tomllib.loads(base_path.read_text())
+        return tomllib.loads(base_path.read_text()), base_path.resolve().parent
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise SweepFileError(
+            f"{where}field 'base': cannot read the base config {str(base_path)!r} ({exc})"
+        ) from None
     except FileNotFoundError:
         raise SweepFileError(
             f"{where}field 'base': base config {str(base_path)!r} not found; give a path "

@@ -288,6 +288,11 @@ class WallForce(Force):
         return [ContactRows(slots // self.n_walls, slots % self.n_walls, WALL, out[slots, :3],
                             out[slots, 3:])]
 
+    def potential_energy(self, ctx: ForceContext) -> float | None:
+        """Static walls store only contact elastic energy (bounded by the health check from
+        the contact list): 0; a moving wall can do work: None."""
+        return 0.0 if not np.any(self.velocity) else None
+
     def max_overlap(self, ctx: ForceContext) -> tuple[float, float, int]:
         """Largest particle-wall overlap ``r_i - |x_i - c|`` now: absolute, relative to the
         radius, and the index of the particle with the latter (``(0, 0, -1)`` if none)."""
