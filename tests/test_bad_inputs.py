@@ -87,6 +87,8 @@ DATA_FILES = {
         3 1 5.0 1.0 1.0
         """, style=""),
     "outside_box.data": lammps(SPHERE_ATOMS.replace("5.0 1.0 1.0", "5.0 1.0 30.0")),
+    "negative.data": lammps(SPHERE_ATOMS.replace("2 1 1.0", "2 1 -1.0")),
+    "header.data": lammps(SPHERE_ATOMS).replace("3 atoms", "three atoms"),
 }
 
 
@@ -336,6 +338,29 @@ CASES: list[tuple[str, dict[str, Any] | str | bytes, str]] = [
     ("dim-string", generic('dim = "3"'), "dim: '3'"),
     ("scenario-number", generic("scenario = 3"), "scenario"),
     ("unknown-section", generic("[colour]\nred = 1"), "colour: unknown key"),
+    # ------------------------------------- found by scripts/adversarial_check.py (issue 10)
+    ("radius-empty-list", generic(f"particles = [{{{LIST}, radius = []}}]"),
+     "particles[0].radius: []"),
+    ("restitution-without-a-dashpot", generic('[contact]\nmodel = {damping = "none"}'),
+     "restitution, contact_time: they give gamma_n"),
+    ("lattice-spacing-overlapping",
+     generic(f"particles = [{{{LATTICE}, spacing = 0.2}}]"),
+     "particles[0].spacing: 0.2 is less than the largest diameter 1"),
+    ("region-unknown-shape", generic(
+        f"particles = [{{{LATTICE}, region = {{shape = 'blob'}}}}]"),
+     "particles[0].region.shape: 'blob'"),
+    ("wall-off-the-plane-of-a-2d-run",
+     'dim = 2\n[run]\nsteps = 10\n[box]\nlo = [0, 0]\nhi = [10, 10]\n'
+     '[[particles]]\nfill = "list"\npositions = [[5, 5]]\nradius = 0.5\n'
+     '[contact]\nlaw = "granular"\nrestitution = 0.8\ncontact_time = 0.05\n'
+     '[[walls]]\nshape = "plane"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n',
+     "walls[0]: a 'plane' wall with these fields does not lie in the z = 0 plane"),
+    ("data-negative-diameter", generic(
+        'particles = [{fill = "lammps_data", file = "negative.data"}]'),
+     "atom id 2 has diameter -1: negative diameters"),
+    ("data-header-not-a-number", generic(
+        'particles = [{fill = "lammps_data", file = "header.data"}]'),
+     "header.data, line 3: 'three atoms'"),
 ]
 
 

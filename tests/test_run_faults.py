@@ -325,7 +325,7 @@ def test_thermo_after_a_resume_equals_the_uninterrupted_log(tmp_path: Path) -> N
     run_config(settle(), whole, progress="none")
     parts = tmp_path / "parts"
     with pytest.raises(RunInterrupted):
-        run_config(settle(), parts, progress=InterruptAt(300))
+        run_config(settle(), parts, progress=InterruptAt(310))  # not a thermo step
     resume_run(parts, progress="none")
     a, b = thermo_rows(whole), thermo_rows(parts)
     assert [r[:-1] for r in a] == [r[:-1] for r in b]
@@ -424,3 +424,49 @@ def test_a_frame_larger_than_the_file_was_made_for_is_refused(tmp_path: Path) ->
         with pytest.raises(ValueError, match="10 particles, more than the 8 rows"):
             writer.append(state.to_frame(0, 0.0))
         assert writer.n_frames == 0
+
+
+def test_a_garbage_summary_is_named_and_resume_still_continues(tmp_path: Path) -> None:
+    rundir = tmp_path / "run"
+    with pytest.raises(RunInterrupted):
+        run_config(_quick(), rundir, progress=InterruptAt(20))
+    (rundir / SUMMARY).write_bytes(b'{"status": "\xff')
+    info = CliRunner().invoke(app, ["info", str(rundir)])
+    assert info.exit_code == 0 and "summary.json: damaged" in info.stdout
+    assert resume_run(rundir, progress="none").status == "finished"
+    assert json.loads((rundir / SUMMARY).read_text())["status"] == "finished"
+
+
+def test_a_run_that_can_never_finish_is_refused_before_the_directory_is_touched(tmp_path):
+    config = settle()
+    del config["run"]["steps"]
+    config["run"]["duration"] = 1e300
+    with pytest.raises(ValueError, match=r"run.duration: 1e\+300 .* more than 1e\+12 steps"):
+        run_config(config, tmp_path / "run", progress="none")
+    assert not (tmp_path / "run").exists()
+
+
+def test_overwrite_with_a_config_that_fails_to_build_keeps_the_previous_run(tmp_path):
+    rundir = tmp_path / "run"
+    run_config(_quick(), rundir, progress="none")
+    before = sorted(p.name for p in rundir.iterdir())
+    broken = settle(run__dt=1.0)  # refused when built: far past the contact time
+    with pytest.raises(ValueError, match="run.dt"):
+        run_config(broken, rundir, overwrite=True, progress="none")
+    assert sorted(p.name for p in rundir.iterdir()) == before
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--threads", "0", "info", "."], "error: Invalid value for '--threads'"),
+    (["run", "."], "error: Invalid value for 'config'"),
+    (["nonsense"], "error: No such command 'nonsense'"),
+])
+def test_usage_errors_of_the_program_are_one_line(args: list[str], message: str) -> None:
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-m", "grainflow", *args], capture_output=True,
+                            text=True)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [result.stderr.strip()]
+    assert result.stderr.startswith(message)

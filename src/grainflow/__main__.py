@@ -1,5 +1,5 @@
 """``python -m grainflow``: the same command as ``grainflow``."""
 
-from grainflow.cli import app
+from grainflow.cli import entry
 
-app(prog_name="grainflow")
+entry()

@@ -171,6 +171,21 @@ def bench(ctx: typer.Context) -> None:
         _benchmark_main()(list(ctx.args))
 
 
+def entry(argv: list[str] | None = None) -> None:
+    """The ``grainflow`` program: :data:`app`, with click's own usage errors (a bad option,
+    a directory given for a file) turned into one ``error:`` line and exit code 2 as well."""
+    try:
+        code = app(args=argv, prog_name="grainflow", standalone_mode=False)
+    except typer.Abort:
+        typer.echo("error: interrupted", err=True)
+        sys.exit(130)
+    except typer.TyperException as err:  # click's usage errors (typer's own copy of click)
+        message = err.format_message() if hasattr(err, "format_message") else str(err)
+        typer.echo(f"error: {' '.join(message.split())}", err=True)
+        sys.exit(getattr(err, "exit_code", 2))
+    sys.exit(code if isinstance(code, int) else 0)
+
+
 def _register_sweep() -> None:
     """Add ``sweep`` and ``sweep-status`` when the sweep subsystem is importable."""
     try:
@@ -291,7 +306,11 @@ def _describe(rundir: Path, runner: Any) -> list[tuple[str, str]]:
     lines = [("run dir", str(rundir.resolve())),
              ("scenario", f"{config.get('scenario', 'generic')}, {config.get('dim', 3)}D, "
                           f"{length}, integrator {run.get('integrator')}")]
-    summary = runner.read_summary(rundir)
+    try:
+        summary = runner.read_summary(rundir)
+    except runner.RunDirError as err:
+        summary = None
+        lines.append(("summary", str(err)))
     if summary is not None:
         lines.append(("status", f"{summary['status']} at step {summary['step']} of "
                                 f"{summary['steps']} (t = {summary['time']:.6g}, "
@@ -301,7 +320,7 @@ def _describe(rundir: Path, runner: Any) -> list[tuple[str, str]]:
                                    f"{summary['particle_steps_per_s']:.3g} particle-steps/s"))
         if summary["message"]:
             lines.append(("message", summary["message"]))
-    else:
+    elif not any(name == "summary" for name, _ in lines):
         lines.append(("status", "running, or stopped without a summary (killed?)"))
     try:
         step = runner.checkpoint_step(rundir / runner.CHECKPOINT)

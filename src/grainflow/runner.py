@@ -134,10 +134,12 @@ def run_config(config: RunConfig | Mapping[str, Any] | str | os.PathLike[str],
     display = _progress(progress, cfg)
     set_threads(threads)
     outputs = _outputs_of(cfg)
-    removed = _prepare_rundir(rundir, overwrite, outputs)
+    removed = _check_rundir(rundir, overwrite, outputs)
+    sim = build_simulation(cfg)
+    total_steps(cfg, sim)  # a run that can never finish is refused here
+    _prepare_rundir(rundir, removed)  # only now, when everything is known to be valid
     if removed and log is not None:
         log(f"removed the previous run's outputs from {rundir}: {', '.join(removed)}")
-    sim = build_simulation(cfg)
     text = tomli_w.dumps(resolved_dict(cfg))
     record_outputs(rundir, outputs, config_text=text)
     _atomic_write_text(rundir / CONFIG, text)
@@ -152,7 +154,10 @@ def resume_run(rundir: str | os.PathLike[str], *, threads: int | None = None,
         if not (rundir / name).is_file():
             raise RunDirError(f"{rundir}: no {name}; is it a grainflow run directory "
                               "(written by 'grainflow run')?")
-    summary = read_summary(rundir)
+    try:
+        summary = read_summary(rundir)
+    except RunDirError:
+        summary = None  # cut short by a kill: the checkpoint decides, the summary is rewritten
     if summary is not None and summary.get("status") == "unstable":
         raise RunDirError(f"{rundir}: the run went unstable ({summary.get('message')}); "
                           "resuming from its last healthy checkpoint would repeat the "
@@ -486,13 +491,13 @@ def _outputs_of(config: RunConfig) -> list[str]:
     return names
 
 
-def _prepare_rundir(rundir: Path, overwrite: bool, outputs: list[str]) -> list[str]:
-    """Make ``rundir`` ready for a fresh run; with ``overwrite``, remove what the manifest
-    says grainflow wrote there (returned, sorted), after checking that none of ``outputs``
-    would replace a file of the user's."""
+def _check_rundir(rundir: Path, overwrite: bool, outputs: list[str]) -> list[str]:
+    """What must go from ``rundir`` before a fresh run writes ``outputs`` there (with
+    ``overwrite``: what the manifest says grainflow wrote, sorted); RunDirError when it is
+    not empty without ``overwrite``, or when an output would replace a file of the user's.
+    Nothing is changed."""
     if rundir.exists() and not rundir.is_dir():
         raise RunDirError(f"{rundir} exists and is not a directory")
-    removed: list[str] = []
     if rundir.is_dir() and any(rundir.iterdir()):
         if not overwrite:
             raise RunDirError(f"{rundir} exists and is not empty; pass --overwrite to replace "
@@ -508,16 +513,21 @@ def _prepare_rundir(rundir: Path, overwrite: bool, outputs: list[str]) -> list[s
             raise RunDirError(
                 f"{rundir}: --overwrite would replace files grainflow did not write: "
                 f"{', '.join(foreign)}; move them away or choose another run directory")
-        for name in sorted(set(ours) | set(TEMPORARY)):
-            target = rundir / name
-            if target.is_dir() and not target.is_symlink():
-                shutil.rmtree(target)
-            elif target.exists() or target.is_symlink():
-                target.unlink()
-            else:
-                continue
-            removed.append(name)
-        (rundir / MANIFEST).unlink(missing_ok=True)
+        return sorted(name for name in set(ours) | set(TEMPORARY)
+                      if (rundir / name).exists() or (rundir / name).is_symlink())
+    return []
+
+
+def _prepare_rundir(rundir: Path, remove: list[str]) -> None:
+    """Remove ``remove`` (names :func:`_check_rundir` gave) and the manifest from
+    ``rundir``, or create it; RunDirError if it cannot be written."""
+    for name in remove:
+        target = rundir / name
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        else:
+            target.unlink(missing_ok=True)
+    (rundir / MANIFEST).unlink(missing_ok=True)
     try:
         rundir.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -525,7 +535,6 @@ def _prepare_rundir(rundir: Path, overwrite: bool, outputs: list[str]) -> list[s
     if not os.access(rundir, os.W_OK):
         raise RunDirError(f"{rundir}: the run directory is not writable; choose another "
                           "with --output")
-    return removed
 
 
 def record_outputs(rundir: Path, names: list[str] | tuple[str, ...], *,
@@ -590,7 +599,18 @@ def _damaged_checkpoint(path: Path, err: Exception) -> str:
 
 
 def read_summary(rundir: Path) -> dict[str, Any] | None:
-    """``summary.json`` of a run directory, or None before the run ended."""
+    """``summary.json`` of a run directory, or None before the run ended;
+    :class:`RunDirError` if it is damaged."""
     path = Path(rundir) / SUMMARY
-    return json.loads(path.read_text()) if path.is_file() else None
+    if not path.is_file():
+        return None
+    try:
+        summary = json.loads(path.read_text())
+        if not isinstance(summary, dict) or not isinstance(summary.get("status"), str):
+            raise ValueError("no status")
+    except (OSError, ValueError) as err:  # JSON and UTF-8 errors are ValueErrors
+        raise RunDirError(f"{path}: damaged ({type(err).__name__}: {err}); it is rewritten "
+                          "when the run resumes or ends (grainflow resume "
+                          f"{path.parent})") from None
+    return summary
 

@@ -51,12 +51,24 @@ def build_simulation(config: RunConfig, *, prepare: bool = True) -> Simulation:
     return sim
 
 
+#: Longest run accepted, in steps (a million particle-steps per second gives 10^12 steps of
+#: one particle in 12 days): beyond, a duration or step count is surely a typo.
+MAX_STEPS = 10**12
+
+
 def total_steps(config: RunConfig, sim: Simulation) -> int:
-    """The run's length in steps (``run.steps``, or ``ceil(run.duration / dt)``)."""
+    """The run's length in steps (``run.steps``, or ``ceil(run.duration / dt)``);
+    ConfigError past :data:`MAX_STEPS`."""
     run = config.run
     if run.steps is not None:
-        return run.steps
-    return max(1, math.ceil(run.duration / sim.dt - 1e-9))
+        steps, field = run.steps, f"run.steps: {run.steps}"
+    else:
+        steps = max(1, math.ceil(run.duration / sim.dt - 1e-9))
+        field = f"run.duration: {run.duration:g} at dt = {sim.dt:g} gives {steps:.3g} steps, which"
+    if steps > MAX_STEPS:
+        raise ConfigError([f"{field} is more than {MAX_STEPS:.0e} steps; expected a run "
+                           "length that can finish (check the units)"])
+    return steps
 
 
 def make_simulation(config: RunConfig, state: ParticleState,
@@ -383,9 +395,14 @@ def _add_walls(config: RunConfig, sim: Simulation) -> None:
     by_type: dict[int, list] = {}
     for k, wall in enumerate(config.walls):
         try:
-            by_type.setdefault(wall.type, []).extend(wall_shapes(wall))
+            shapes = wall_shapes(wall)
         except ValueError as err:
             raise ConfigError([f"walls[{k}].{err}"]) from None
+        if config.dim == 2 and not all(shape.planar() for shape in shapes):
+            raise ConfigError([f"walls[{k}]: a {wall.shape!r} wall with these fields does not "
+                               "lie in the z = 0 plane of a 2D run; expected a segment, a plane "
+                               "with a normal in the plane, or a cylinder along z without lids"])
+        by_type.setdefault(wall.type, []).extend(shapes)
     particle_types = sorted({int(t) for t in np.unique(sim.state.type)}
                             | {p.type for p in config.particles} | {i.type for i in config.insert})
     for wall_type, shapes in by_type.items():

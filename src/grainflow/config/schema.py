@@ -235,7 +235,7 @@ class SizedPopulation(_Population):
     """A population whose sizes and masses the config gives (not read from a file)."""
 
     radius: Annotated[list[PositiveLength], BeforeValidator(_listify)] = Field(
-        description="radius, or a list of radii (polydisperse)")
+        min_length=1, description="radius, or a list of radii (polydisperse)")
     fractions: list[Annotated[Finite, Field(gt=0)]] | None = Field(
         None, description="number fraction of each radius; default equal")
     density: quantity("density", gt=0) | None = Field(None, description="default 1")
@@ -286,6 +286,16 @@ class LatticeFill(SizedPopulation):
         None, description="nearest-neighbour distance; default 1.1 x the largest diameter")
     packing_fraction: float | None = Field(
         None, gt=0, lt=1, description="remove sites at random down to this packing fraction")
+
+    @field_validator("spacing")
+    @classmethod
+    def _no_overlap(cls, spacing: float | None, info: ValidationInfo) -> float | None:
+        radius = info.data.get("radius")
+        if spacing is not None and radius and spacing < 2 * max(radius):
+            raise ValueError(f"{spacing:g} is less than the largest diameter {2 * max(radius):g}: "
+                             "neighbouring grains would overlap; expected a spacing of at "
+                             "least the largest diameter (default 1.1 x)")
+        return spacing
 
 
 class RandomFill(SizedPopulation):
@@ -800,6 +810,8 @@ def format_errors(err: ValidationError, root: type[BaseModel], prefix: str = "")
         elif kind in ("union_tag_invalid", "union_tag_not_found"):
             ctx = e.get("ctx", {})
             key = str(ctx.get("discriminator", "")).strip("'")
+            if key == f"{_region_tag.__name__}()":  # the region union's tag is its shape
+                key = "shape"
             tag = ctx.get("tag")
             shown = "missing" if tag is None else f"{tag!r} is not valid"
             tags = ctx.get("expected_tags") or ", ".join(repr(t) for t in _tags(here, key))

@@ -436,15 +436,17 @@ class Simulation:
         or force, or on a particle moving more than ``MAX_STEP_FRACTION`` of its radius in
         one step."""
         st = self.state
-        code, i, value = scan_state(st.x, st.v, st.omega, st.force, st.radius, st.frozen,
-                                    self.dt, MAX_STEP_FRACTION)
+        code, i = scan_state(st.x, st.v, st.omega, st.force, st.radius, st.frozen, self.dt,
+                             MAX_STEP_FRACTION)
         if code == HEALTHY:
             return
         if code == TOO_FAST:
+            largest = float(np.abs(st.v[i]).max())  # scaled: |v| may overflow when squared
+            speed = largest * float(np.linalg.norm(st.v[i] / largest))
             raise InstabilityError(
                 self.step, int(st.id[i]),
-                f"it moves {value:.3g} radii per step (|v| = "
-                f"{float(np.linalg.norm(st.v[i])):.4g}, dt = {self.dt:g}), more than "
+                f"it moves {speed * self.dt / st.radius[i]:.3g} radii per step (|v| = "
+                f"{speed:.4g}, dt = {self.dt:g}), more than "
                 f"{MAX_STEP_FRACTION:g}: at that speed grains pass through walls and each "
                 f"other; dt is too large for {self._shortest_scale()}, or the particle was "
                 "given an unphysical velocity")

@@ -62,14 +62,18 @@ def read_lammps_data(path: str | Path) -> LammpsData:
             continue
         words = line.split()
         if current is None or words[0] in ("Atoms", "Velocities", "Masses", "Bonds"):
-            if line.endswith("atoms") and len(words) == 2:
-                natoms = int(words[0])
-                continue
-            if line.endswith("xy xz yz"):
-                tilted = True
-            for a, tag in enumerate(("xlo xhi", "ylo yhi", "zlo zhi")):
-                if line.endswith(tag):
-                    lo[a], hi[a] = float(words[0]), float(words[1])
+            try:
+                if line.endswith("atoms") and len(words) == 2:
+                    natoms = int(words[0])
+                    continue
+                if line.endswith("xy xz yz"):
+                    tilted = True
+                for a, tag in enumerate(("xlo xhi", "ylo yhi", "zlo zhi")):
+                    if line.endswith(tag):
+                        lo[a], hi[a] = float(words[0]), float(words[1])
+            except ValueError:
+                raise ValueError(f"{path}, line {number}: '{line}' is not a valid header line "
+                                 "(a number is expected first)") from None
             if words[0] in ("Atoms", "Velocities", "Masses", "Bonds"):
                 current = words[0]
                 sections[current] = []
@@ -116,7 +120,10 @@ def read_lammps_data(path: str | Path) -> LammpsData:
         omega[rows] = vel[:, 4:7]
     diameter = atoms[:, 2]
     if np.any(diameter <= 0):
-        raise ValueError(f"{path}: point particles (diameter 0) are not supported")
+        bad = int(np.argmax(diameter <= 0))
+        kind = "point particles (diameter 0)" if diameter[bad] == 0 else "negative diameters"
+        raise ValueError(f"{path}: atom id {int(atoms[bad, 0])} has diameter {diameter[bad]:g}: "
+                         f"{kind} are not supported")
     return LammpsData(lo=lo, hi=hi, id=atoms[:, 0].astype(np.int64),
                       type=atoms[:, 1].astype(np.int32), diameter=diameter, density=atoms[:, 3],
                       x=atoms[:, 4:7], image=image, v=v, omega=omega)

@@ -48,6 +48,7 @@ import numpy as np
 from grainflow import __version__
 from grainflow.engine.simulation import InstabilityError
 from grainflow.frame import CONTACT_KINDS, PAIR, Box, Contacts, Frame
+from grainflow.io.aside import damaged_name
 
 __all__ = ["DEFAULT_MAX_ROWS", "DamagedFileError", "NonFiniteFrameError", "TrajectoryWriter",
            "check_finite_frame", "count_frames", "max_rows_for", "read_frame", "read_frames",
@@ -390,7 +391,7 @@ def repair_frames(path: str | os.PathLike[str], resume_step: int | None = None) 
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    damaged = _damaged_name(path)
+    damaged = damaged_name(path)
     if kept:
         try:
             os.link(path, damaged)  # keep the original under its new name, then swap atomically
@@ -813,16 +814,6 @@ def _check_salvaged(frame: Frame, last: Frame | None, dim: int, contacts: bool) 
         if m and ((c.i < 0).any() or (c.kind < 0).any() or (c.kind >= len(CONTACT_KINDS)).any()):
             raise ValueError("absent contact rows")
     check_finite_frame("repair_frames", frame, contacts=contacts)  # NaN rows are missing rows
-
-
-def _damaged_name(path: Path) -> Path:
-    """``<name>.damaged``, or the first free ``<name>.damaged.<i>``: an earlier one is kept too."""
-    candidate = path.with_name(path.name + ".damaged")
-    i = 0
-    while candidate.exists():
-        i += 1
-        candidate = path.with_name(f"{path.name}.damaged.{i}")
-    return candidate
 
 
 def _time_dependent(f: h5py.File) -> list[h5py.Dataset]:

@@ -17,6 +17,7 @@ import numpy as np
 
 from grainflow.engine.operations import ObserverContext
 from grainflow.engine.simulation import InstabilityError
+from grainflow.io.aside import damaged_name
 
 __all__ = ["THERMO_COLUMNS", "ThermoLog"]
 
@@ -59,7 +60,10 @@ class ThermoLog:
                 f"ThermoLog: {path} cannot be continued ({problem}); it was moved to "
                 f"{self.moved_aside} and a new {path.name} starts at step {resume_step}",
                 RuntimeWarning, stacklevel=2)
-        if resume_step is not None and problem is None and path.is_file():
+        #: Continuing an existing log: the resumed state is not logged again (the row the
+        #: uninterrupted run would have there, if any, is already in the file).
+        self._continues = resume_step is not None and problem is None and path.is_file()
+        if self._continues:
             self._last_step = _trim_csv(path, resume_step)
             self._file = path.open("a")
         else:
@@ -69,8 +73,9 @@ class ThermoLog:
         self._last: tuple[int, float] | None = None
 
     def start(self, ctx: ObserverContext) -> None:
-        """A run begins: log its first state unless that step is logged already."""
-        if ctx.step != self._last_step:
+        """A run begins: log its first state, unless this log continues an interrupted one
+        (then the row due at that step, if any, is in the file already)."""
+        if not self._continues and ctx.step != self._last_step:
             self(ctx)
 
     def __call__(self, ctx: ObserverContext) -> None:
@@ -150,11 +155,7 @@ def _check_csv(path: Path, step: int) -> str | None:
 
 def _move_aside(path: Path) -> Path:
     """Rename ``path`` to the first free ``<name>.damaged[.i]`` and return the new path."""
-    target = path.with_name(path.name + ".damaged")
-    i = 0
-    while target.exists():
-        i += 1
-        target = path.with_name(f"{path.name}.damaged.{i}")
+    target = damaged_name(path)
     os.replace(path, target)
     return target
 

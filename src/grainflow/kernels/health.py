@@ -23,26 +23,24 @@ ARRAY_OF_CODE = {BAD_X: "x", BAD_V: "v", BAD_OMEGA: "omega", BAD_FORCE: "force"}
 
 @njit(cache=True)
 def scan_state(x, v, omega, force, radius, frozen, dt, max_step_fraction):
-    """First particle whose state is broken: ``(code, index, value)``.
-
-    ``code`` is one of :data:`HEALTHY` ... :data:`TOO_FAST`; ``value`` is ``|v| dt / r`` for
-    :data:`TOO_FAST` (0 otherwise). Frozen particles are checked for finiteness only.
-    """
+    """First particle whose state is broken: ``(code, index)``, ``code`` one of
+    :data:`HEALTHY` ... :data:`TOO_FAST` (index -1 when healthy). Frozen particles are
+    checked for finiteness only."""
     n = x.shape[0]
     for i in range(n):
         for a in range(3):
             if not math.isfinite(x[i, a]):
-                return BAD_X, i, 0.0
+                return BAD_X, i
             if not math.isfinite(v[i, a]):
-                return BAD_V, i, 0.0
+                return BAD_V, i
             if not math.isfinite(omega[i, a]):
-                return BAD_OMEGA, i, 0.0
+                return BAD_OMEGA, i
             if not math.isfinite(force[i, a]):
-                return BAD_FORCE, i, 0.0
+                return BAD_FORCE, i
         if frozen[i]:
             continue
         speed2 = v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1] + v[i, 2] * v[i, 2]
         reach = max_step_fraction * radius[i]
         if speed2 * dt * dt > reach * reach:
-            return TOO_FAST, i, math.sqrt(speed2) * dt / radius[i]
-    return HEALTHY, -1, 0.0
+            return TOO_FAST, i
+    return HEALTHY, -1

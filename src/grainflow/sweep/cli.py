@@ -127,6 +127,9 @@ def sweep_command(
         except CatalogError as exc:  # name this sweep file in the command to run
             raise CatalogError(str(exc).replace("SWEEP.toml", str(sweep_file))) from None
     if not result.ok:
+        done = result.counts.get("done", 0)
+        typer.echo(f"error: {result.total - done} of {result.total} points did not finish; "
+                   f"their reasons: grainflow sweep-status {result.sweepdir}", err=True)
         raise typer.Exit(1)
 
 

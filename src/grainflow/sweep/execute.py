@@ -205,7 +205,7 @@ def _previous_attempt(rundir: Path, config: dict[str, Any]) -> tuple[str, str]:
     """
     import tomllib
 
-    from grainflow.runner import CHECKPOINT, CONFIG, checkpoint_step, read_summary
+    from grainflow.runner import CHECKPOINT, CONFIG, RunDirError, checkpoint_step, read_summary
 
     has_checkpoint = (rundir / CHECKPOINT).is_file()
     try:
@@ -220,7 +220,7 @@ def _previous_attempt(rundir: Path, config: dict[str, Any]) -> tuple[str, str]:
         return "stale", "written for another configuration"
     try:
         summary = read_summary(rundir)
-    except (OSError, ValueError):
+    except RunDirError:
         summary = None  # a summary cut short by a kill: the checkpoint decides
     status = summary.get("status") if isinstance(summary, dict) else None
     if status == "unstable":  # with or without a healthy checkpoint
