@@ -342,7 +342,7 @@ CASES: list[tuple[str, dict[str, Any] | str | bytes, str]] = [
     ("radius-empty-list", generic(f"particles = [{{{LIST}, radius = []}}]"),
      "particles[0].radius: []"),
     ("restitution-without-a-dashpot", generic('[contact]\nmodel = {damping = "none"}'),
-     "restitution, contact_time: they give gamma_n"),
+     "contact.restitution: 0.8 (with contact_time) gives gamma_n"),
     ("lattice-spacing-overlapping",
      generic(f"particles = [{{{LATTICE}, spacing = 0.2}}]"),
      "particles[0].spacing: 0.2 is less than the largest diameter 1"),
@@ -355,6 +355,10 @@ CASES: list[tuple[str, dict[str, Any] | str | bytes, str]] = [
      '[contact]\nlaw = "granular"\nrestitution = 0.8\ncontact_time = 0.05\n'
      '[[walls]]\nshape = "plane"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n',
      "walls[0]: a 'plane' wall with these fields does not lie in the z = 0 plane"),
+    ("pour-region-outside-the-box",
+     generic("insert = [{" + POUR.replace("[0, 0, 8], hi = [10, 10, 10]",
+                                          "[20, 20, 20], hi = [30, 30, 30]") + "}]"),
+     "insert[0].region: lo [20.0, 20.0, 20.0]"),
     ("data-negative-diameter", generic(
         'particles = [{fill = "lammps_data", file = "negative.data"}]'),
      "atom id 2 has diameter -1: negative diameters"),

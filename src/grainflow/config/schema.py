@@ -710,6 +710,15 @@ def _placement_problems(config: RunConfig) -> list[str]:
                             "periodic)")
         if isinstance(pop, RandomFill):
             problems += _overfull(pop, where, _region_volume(region, dim), dim)
+    for k, updater in enumerate(config.insert):
+        # as LAMMPS's fix pour: grains are inserted inside the box
+        bounds = _region_bounds(updater.region, dim)
+        axes = (_outside_box(box, dim, *bounds)
+                if box is not None and not isinstance(bounds, str) else "")
+        if axes:
+            problems.append(f"insert[{k}].region: {_show_region(updater.region)} reaches "
+                            f"outside the box on {axes}; expected an insertion region inside "
+                            "the box on non-periodic axes")
     return problems
 
 

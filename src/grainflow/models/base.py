@@ -148,11 +148,12 @@ class ContactLaw:
             out = self.parts[slot].resolve(out, meff)
         made = [k for k in out if k not in params and k not in self.param_names]
         if made:  # e.g. a restitution below 1 asks for a dashpot the composition lacks
-            inputs = ", ".join(k for k in params if k not in out)
-            raise ValueError(f"{inputs}: they give {', '.join(made)}, which the contact law "
-                             f"{self.name} has no place for (its damping model is "
-                             f"{self.models['damping']!r}); use model.damping = 'viscous', or "
-                             "give its own parameters instead")
+            first, *others = (k for k in params if k not in out)
+            given = f" (with {', '.join(others)})" if others else ""
+            raise ValueError(f"{first}: {params[first]!r}{given} gives {', '.join(made)}, which "
+                             f"the contact law {self.name} has no place for (its damping "
+                             f"model is {self.models['damping']!r}); use model.damping = "
+                             "'viscous', or give its own parameters instead")
         return out
 
     def _row(self, params: dict[str, Any]) -> np.ndarray:
