@@ -470,3 +470,24 @@ def test_usage_errors_of_the_program_are_one_line(args: list[str], message: str)
     assert result.returncode == 2
     assert result.stderr.strip().splitlines() == [result.stderr.strip()]
     assert result.stderr.startswith(message)
+
+
+@pytest.mark.parametrize("delay", [0.15, 0.3, 0.5])
+def test_ctrl_c_while_the_program_starts_is_one_line(tmp_path: Path, delay: float) -> None:
+    """A real SIGINT while grainflow's modules are still imported: one error line, no
+    traceback (before Python itself has started, ~0.05 s, nothing of ours runs yet)."""
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "grainflow", "info", str(tmp_path)], stderr=subprocess.PIPE,
+        stdout=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert "Traceback" not in err, err
+    # 130 (or killed by SIGINT, as Python ends on an interrupt it re-raises); 2: done already
+    assert proc.returncode in (130, -signal.SIGINT, 2), (proc.returncode, err)
+    assert len(err.strip().splitlines()) == 1, err

@@ -183,6 +183,8 @@ def entry(argv: list[str] | None = None) -> None:
         message = err.format_message() if hasattr(err, "format_message") else str(err)
         typer.echo(f"error: {' '.join(message.split())}", err=True)
         sys.exit(getattr(err, "exit_code", 2))
+    if code == 130:  # typer turns a Ctrl-C outside our verbs into a silent exit 130
+        typer.echo("error: interrupted", err=True)
     sys.exit(code if isinstance(code, int) else 0)
 
 
