@@ -132,3 +132,21 @@ def test_checkpoint_round_trip_bitwise(integrator, k):
     # contact histories identical too
     assert np.array_equal(resumed.neighbors.nbr, ref.neighbors.nbr)
     assert np.array_equal(resumed.interactions[0].history, ref.interactions[0].history)
+
+
+def test_the_threading_layer_is_chosen_by_the_project() -> None:
+    """OpenMP before TBB (numba's default order puts TBB first; issue 11), unless the user
+    set a layer in the environment; checked in a fresh process, where no layer is loaded."""
+    import subprocess
+    import sys
+
+    code = ("import numba, grainflow.engine.simulation as s; print(numba.config."
+            "THREADING_LAYER_PRIORITY)")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_THREADING_LAYER")}
+    chosen = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            env=env, check=True).stdout
+    assert chosen.strip() == "['omp', 'tbb', 'workqueue']"
+    env["NUMBA_THREADING_LAYER_PRIORITY"] = "workqueue omp tbb"
+    kept = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, check=True).stdout
+    assert kept.strip() == "['workqueue', 'omp', 'tbb']"

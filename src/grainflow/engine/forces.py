@@ -74,6 +74,7 @@ class Drag(Force):
                              "number, or one per particle type")
         self.zeta = z
         self._per_type = np.asarray(zeta).ndim > 0
+        self._types_of: tuple[int, np.ndarray] | None = None  # (state generation, zeta)
 
     def _of_types(self, ntypes: int) -> np.ndarray:
         """zeta of types 0 .. ntypes-1; ValueError if a type present has no value."""
@@ -90,8 +91,11 @@ class Drag(Force):
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
-        z = self._of_types(int(st.type.max()) + 1 if st.n else 1)
-        _add_drag(st.force, st.v, z, st.type, st.frozen)
+        if self._types_of is None or self._types_of[0] != st.generation:
+            # the types present change only when particles are added, removed or re-sorted
+            self._types_of = (st.generation, self._of_types(int(st.type.max()) + 1
+                                                            if st.n else 1))
+        _add_drag(st.force, st.v, self._types_of[1], st.type, st.frozen)
 
     def potential_energy(self, ctx: ForceContext) -> float:
         """Drag only dissipates: nothing is stored."""

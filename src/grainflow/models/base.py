@@ -70,6 +70,7 @@ class ContactLaw:
         self.table = np.zeros((n_types, n_types, len(self.params)))
         self._set_types: set[tuple[int, int]] = set()
         self._evaluator: Any = None
+        self._reach: float | None = None  # cached; every write of the table resets it
 
     # ------------------------------------------------------------------ description
     @property
@@ -120,12 +121,14 @@ class ContactLaw:
         row = self._row(params)
         self.table[type_i, type_j] = row
         self.table[type_j, type_i] = row
+        self._reach = None
         self._set_types.add((min(type_i, type_j), max(type_i, type_j)))
 
     def set_all(self, **params: Any) -> None:
         """Set the same parameters for every type pair."""
         row = self._row(params)
         self.table[:, :] = row
+        self._reach = None
         for a in range(self.n_types):
             for b in range(a, self.n_types):
                 self._set_types.add((a, b))
@@ -139,6 +142,7 @@ class ContactLaw:
         old = self.table
         self.table = np.broadcast_to(old[0, 0], (n, n, old.shape[2])).copy()
         self.table[: old.shape[0], : old.shape[1]] = old
+        self._reach = None
 
     def resolve(self, params: dict[str, Any], meff: float) -> dict[str, Any]:
         """Turn config-only inputs (e.g. ``restitution`` and ``contact_time``) into table
@@ -197,13 +201,17 @@ class ContactLaw:
 
         Contract with the pair loop: beyond ``r_i + r_j + reach`` the law exerts no force and
         its history for the pair is zero (the loop does not call the evaluator there).
+        Computed once per change of the table (it is asked twice per step); change the
+        table through :meth:`set_pair` / :meth:`set_all`.
         """
-        best = 0.0
-        for slot in SLOTS:
-            part = self.parts[slot]
-            c = self.column_of[slot]
-            best = max(best, part.reach(self.table[:, :, c:c + len(part.columns())]))
-        return best
+        if self._reach is None:
+            best = 0.0
+            for slot in SLOTS:
+                part = self.parts[slot]
+                c = self.column_of[slot]
+                best = max(best, part.reach(self.table[:, :, c:c + len(part.columns())]))
+            self._reach = best
+        return self._reach
 
     def contact_time(self, type_i: int, type_j: int, meff: float, sigma: float) -> float:
         """Duration of a binary collision of a type pair with effective mass ``meff`` and
