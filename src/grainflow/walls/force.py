@@ -33,6 +33,12 @@ positions of ``sim.time``.
 
 Walls are not periodic: a wall acts on particle positions as stored (wrapped into the box on
 periodic axes).
+
+Static walls visit only the particles near them: at each neighbour-list build the particles
+within ``r_i + reach + skin`` of some wall, or holding a wall contact history, are listed, and
+the stepping loop runs over them alone. Until the next build no particle moves more than
+``skin/2`` (the list's own rebuild rule), so no other particle can reach a wall; the results
+are bitwise those of visiting every particle. Moving walls visit every particle.
 """
 
 from __future__ import annotations
@@ -61,8 +67,10 @@ def wall_kernel(evaluate: Any) -> Any:
 
 
 def _wall_loop(table, wall_type, acts_on, kinds, params, shift, wall_v, x, v, omega, radius,
-               mass, ptype, frozen, hist, reach, dt, update, force, torque, record, out):
-    """Add the wall forces and torques of every (particle, wall) pair.
+               mass, ptype, frozen, hist, reach, dt, update, force, torque, record, out,
+               visit):
+    """Add the wall forces and torques of every (particle, wall) pair of the particles
+    ``visit`` (indices; the others are known to be out of reach, with no history).
 
     Template bound to the law's ``evaluate`` by :func:`wall_kernel`. ``hist`` is
     ``(N * n_walls, H)`` with slot ``i * n_walls + w``; ``shift`` (n_walls, 3) is each
@@ -72,7 +80,8 @@ def _wall_loop(table, wall_type, acts_on, kinds, params, shift, wall_v, x, v, om
     """
     nw = kinds.shape[0]
     nh = hist.shape[1]
-    for i in prange(x.shape[0]):
+    for k in prange(visit.shape[0]):
+        i = visit[k]
         if frozen[i] or not acts_on[ptype[i]]:
             continue
         ri = radius[i]
@@ -132,6 +141,33 @@ def _wall_loop(table, wall_type, acts_on, kinds, params, shift, wall_v, x, v, om
             torque[i, 0] -= ri * t0
             torque[i, 1] -= ri * t1
             torque[i, 2] -= ri * t2
+
+
+def wall_gaps(kinds, params, shift, x, radius):
+    """Per particle, the smallest ``|x_i - c| - r_i`` over the walls, on either side of
+    them (:func:`_wall_gaps`)."""
+    return specialize(_wall_gaps, "wall_gaps", {}, parallel=True)(kinds, params, shift, x,
+                                                                    radius)
+
+
+def _wall_gaps(kinds, params, shift, x, radius):
+    """Per particle, the smallest surface gap ``|x_i - c| - r_i`` to a wall. The side does
+    not matter: a particle behind a wall reaches its acting side only through the wall."""
+    n = x.shape[0]
+    nw = kinds.shape[0]
+    gap = np.empty(n)
+    for i in prange(n):
+        g = np.inf
+        for w in range(nw):
+            p0 = x[i, 0] - shift[w, 0]
+            p1 = x[i, 1] - shift[w, 1]
+            p2 = x[i, 2] - shift[w, 2]
+            c0, c1, c2, ok, n0, n1, n2 = closest_point(kinds[w], params, w, p0, p1, p2)
+            d = np.sqrt((p0 - c0) ** 2 + (p1 - c1) ** 2 + (p2 - c2) ** 2)
+            if d < g:
+                g = d
+        gap[i] = g - radius[i]
+    return gap
 
 
 def wall_overlaps(kinds, params, shift, x, radius, frozen, acts_on, ptype):
@@ -211,6 +247,10 @@ class WallForce(Force):
         self._acts_on = np.ones(1, dtype=np.bool_)
         self._no_record = np.zeros((0, 6))
         self._kernel: Any = None
+        #: The particles the stepping loop visits, and the (list build, particle set) they
+        #: were found for (see the module docstring).
+        self._visit = np.zeros(0, dtype=np.int64)
+        self._visit_key: tuple[int, int, int] | None = None
 
     @property
     def n_walls(self) -> int:
@@ -259,6 +299,26 @@ class WallForce(Force):
             arr = st.arrays[self.name] = np.ascontiguousarray(arr)
         return arr.reshape(st.n * self.n_walls, self.law.history_size)
 
+    def _near(self, ctx: ForceContext) -> np.ndarray:
+        """Indices of the particles that may touch a wall before the next list build: within
+        ``r_i + reach + skin`` of one, or holding a wall history (every particle when a
+        wall moves)."""
+        st = ctx.state
+        nl = ctx.neighbors
+        key = (nl.builds, st.generation, st.n)
+        if key == self._visit_key:
+            return self._visit
+        if np.any(self.velocity):
+            self._visit = np.arange(st.n, dtype=np.int64)
+        else:
+            gap = wall_gaps(self.kinds, self.params, self._shift(ctx.time), st.x, st.radius)
+            near = gap < self.law.reach() + nl.skin
+            if st.n and self.law.history_size:
+                near |= np.any(self._history(st).reshape(st.n, -1) != 0.0, axis=1)
+            self._visit = np.nonzero(near)[0].astype(np.int64)
+        self._visit_key = key
+        return self._visit
+
     def _run(self, ctx: ForceContext, time: float, update: bool, force: np.ndarray,
              torque: np.ndarray, out: np.ndarray | None) -> None:
         st = ctx.state
@@ -266,11 +326,12 @@ class WallForce(Force):
         law = self.law
         if self._kernel is None:
             self._kernel = wall_kernel(law.evaluator)
+        visit = np.arange(st.n, dtype=np.int64) if out is not None else self._near(ctx)
         self._kernel(
             law.table, self.wall_type, self._acts_on, self.kinds, self.params,
             self._shift(time), self.velocity, st.x, st.v, st.omega, st.radius, st.mass,
             st.type, st.frozen, self._history(st), law.reach(), ctx.dt, update, force, torque,
-            out is not None, self._no_record if out is None else out)
+            out is not None, self._no_record if out is None else out, visit)
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
