@@ -1,7 +1,9 @@
-"""Chute speed of this working tree against an earlier revision, in one run, on one machine.
+"""Speed of this working tree against an earlier revision, in one run, on one machine.
 
-Checks out ``--base`` (a git revision) into a temporary worktree and times the LAMMPS chute
-(32,000 spheres, ``--steps`` steps after 50 warm-up steps) with both source trees,
+Checks out ``--base`` (a git revision) into a temporary worktree and times ``--case``: the
+LAMMPS chute (``chute``: 32,000 spheres, ``--steps`` steps after 50 warm-up steps) or the
+2D hopper of ``grainflow demo`` (``hopper2d``: 1600 soft disks, drag limit, walls and
+reinsertion, ``--steps`` steps after 500 warm-up steps) with both source trees,
 alternating them ``--repeat`` times on 1 and 2 threads, each measurement in a fresh process
 with the threading layer fixed (``NUMBA_THREADING_LAYER``, default ``omp``). Prints the CPU,
 the median particle-steps per second of each, their ratio, and whether the two trees give
@@ -10,6 +12,7 @@ the same kinetic energy (bitwise) after the run.
 Usage::
 
     python benchmarks/compare_revisions.py --base 8afff5a [--steps 1000] [--repeat 3]
+    python benchmarks/compare_revisions.py --base fba8333 --case hopper2d --steps 10000
 """
 
 from __future__ import annotations
@@ -29,23 +32,31 @@ from chute import cpu_model  # benchmarks/chute.py, beside this script
 
 REPO = Path(__file__).resolve().parents[1]
 
-WORKER = r"""
-import json, sys, time
-from grainflow.scenarios.chute import chute_simulation
-sim = chute_simulation(sys.argv[1])
+#: What each case builds and how long it warms up, in a fresh process (argv: data file, steps).
+SETUP = {
+    "chute": ("from grainflow.scenarios.chute import chute_simulation\n"
+              "sim = chute_simulation(sys.argv[1])\nsim.run(50)\n"),
+    "hopper2d": ("import math\n"
+                 "from grainflow.scenarios.hopper import HopperSection, build_hopper, prepare\n"
+                 "sim = build_hopper(HopperSection(n=1600, orifice_width=10.0, E_sp=1000.0, "
+                 "E_w=1000.0, lam=math.inf), 2, seed=0)\nprepare(sim)\nsim.run(500)\n"),
+}
+TIMED = r"""
 steps = int(sys.argv[2])
-sim.run(50)
 t0 = time.perf_counter()
 sim.run(steps)
 wall = time.perf_counter() - t0
-print(json.dumps({"psps": sim.state.n * steps / wall, "ke": sim.state.kinetic_energy()}))
+print(json.dumps({"psps": sim.state.n * steps / wall, "steps_per_s": steps / wall,
+                  "ke": sim.state.kinetic_energy()}))
 """
 
 
-def measure(src: Path, data: Path, steps: int, threads: int, layer: str) -> dict:
+def measure(src: Path, data: Path, steps: int, threads: int, layer: str,
+            case: str = "chute") -> dict:
     env = dict(os.environ, PYTHONPATH=str(src), NUMBA_NUM_THREADS=str(threads),
                OMP_NUM_THREADS=str(threads), NUMBA_THREADING_LAYER=layer)
-    out = subprocess.run([sys.executable, "-c", WORKER, str(data), str(steps)], env=env,
+    worker = "import json, sys, time\n" + SETUP[case] + TIMED
+    out = subprocess.run([sys.executable, "-c", worker, str(data), str(steps)], env=env,
                          capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -56,6 +67,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--steps", type=int, default=1000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--layer", default="omp", help="numba threading layer (omp, tbb, workqueue)")
+    ap.add_argument("--case", default="chute", choices=sorted(SETUP))
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -67,13 +79,14 @@ def main(argv: list[str] | None = None) -> dict:
             with gzip.open(REPO / "src/grainflow/data/chute/data.chute.gz", "rb") as f:
                 data.write_bytes(f.read())
             trees = {"base": tree / "src", "current": REPO / "src"}
-            results: dict = {"cpu": cpu_model(), "layer": args.layer, "steps": args.steps,
-                             "base": args.base}
+            results: dict = {"case": args.case, "cpu": cpu_model(), "layer": args.layer,
+                             "steps": args.steps, "base": args.base}
             for threads in (1, 2):
                 runs: dict[str, list[dict]] = {k: [] for k in trees}
                 for _ in range(args.repeat):
                     for name, src in trees.items():
-                        runs[name].append(measure(src, data, args.steps, threads, args.layer))
+                        runs[name].append(measure(src, data, args.steps, threads, args.layer,
+                                                  args.case))
                 med = {k: statistics.median(r["psps"] for r in v) for k, v in runs.items()}
                 results[f"{threads}_threads"] = {
                     "base_psps": med["base"], "current_psps": med["current"],
@@ -84,7 +97,7 @@ def main(argv: list[str] | None = None) -> dict:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(tree)],
                            capture_output=True)
             shutil.rmtree(tree, ignore_errors=True)
-    print(f"chute, {args.steps} steps, {results['cpu']}, threading layer {args.layer}, "
+    print(f"{args.case}, {args.steps} steps, {results['cpu']}, threading layer {args.layer}, "
           f"median of {args.repeat}")
     for threads in (1, 2):
         r = results[f"{threads}_threads"]
