@@ -44,6 +44,42 @@ _CORE_FIELDS: dict[str, tuple[tuple[int, ...], type]] = {
 }
 
 
+class _Arrays(dict):
+    """The registry of per-particle arrays, mirrored into its owner's attributes so that
+    ``state.x`` is a plain attribute lookup (the engine reads dozens per step; a
+    ``__getattr__`` fallback cost ~8 % of a small system's step)."""
+
+    def __init__(self, owner: "ParticleState", items: dict[str, np.ndarray]) -> None:
+        super().__init__()
+        self._owner = owner
+        for name, value in items.items():
+            self[name] = value
+
+    def __setitem__(self, name: str, value: np.ndarray) -> None:
+        if name not in self and name in self._owner.__dict__:
+            raise ValueError(f"state array {name!r}: the name is taken by an attribute of "
+                             "the state; choose another")
+        super().__setitem__(name, value)
+        self._owner.__dict__[name] = value
+
+    def __delitem__(self, name: str) -> None:
+        super().__delitem__(name)
+        self._owner.__dict__.pop(name, None)
+
+    def pop(self, name: str, *default: object) -> object:
+        self._owner.__dict__.pop(name, None)
+        return super().pop(name, *default)
+
+    def update(self, *args: object, **kw: np.ndarray) -> None:
+        for name, value in dict(*args, **kw).items():
+            self[name] = value
+
+    def setdefault(self, name: str, value: np.ndarray) -> np.ndarray:  # type: ignore[override]
+        if name not in self:
+            self[name] = value
+        return self[name]
+
+
 @dataclass
 class _Extra:
     shape: tuple[int, ...]
@@ -70,9 +106,9 @@ class ParticleState:
             raise ValueError(f"box: has {box.dim} axes but dim = {dim}; give one bound per axis")
         self.dim = dim
         self.box = box
-        self.arrays: dict[str, np.ndarray] = {
+        self.arrays: dict[str, np.ndarray] = _Arrays(self, {
             name: np.zeros((0, *shape), dtype=dt) for name, (shape, dt) in _CORE_FIELDS.items()
-        }
+        })
         self._extras: dict[str, _Extra] = {}
         self._next_id = 0
         #: Incremented whenever particle indices change (insert, delete, re-sort).
@@ -85,12 +121,6 @@ class ParticleState:
     @property
     def n(self) -> int:
         return len(self)
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        arrays = self.__dict__.get("arrays")
-        if arrays is not None and name in arrays:
-            return arrays[name]
-        raise AttributeError(name)
 
     @property
     def positions(self) -> np.ndarray:
