@@ -23,11 +23,11 @@ from grainflow.engine.simulation import InstabilityError, Simulation
 from grainflow.frame import Box
 from grainflow.io.h5md import read_frames
 from grainflow.models.granular import GranularLaw, stiffness_and_damping
-from grainflow.progress import Progress
 from grainflow.runner import (CHECKPOINT, CONFIG, FRAMES, MANIFEST, SNAPSHOT, SUMMARY, THERMO,
                               RunDirError, RunInterrupted, RunUnstable, read_checkpoint,
                               resume_run, run_config)
 from grainflow.state import ParticleState
+from test_runner import InterruptAt  # a progress display sending a real SIGINT at a step
 
 
 @pytest.fixture(autouse=True)
@@ -305,17 +305,6 @@ def test_a_damaged_checkpoint_is_named_with_a_way_out(tmp_path: Path, damage: st
         "(")[0]
     info = CliRunner().invoke(app, ["info", str(rundir)])
     assert info.exit_code == 0 and "checkpoint is damaged" in info.stdout
-
-
-class InterruptAt(Progress):
-    """A progress display that sends this process a real SIGINT at ``step``."""
-
-    def __init__(self, step: int) -> None:
-        self.step = step
-
-    def update(self, step: int, n: int, rate: float) -> None:
-        if step == self.step:
-            os.kill(os.getpid(), signal.SIGINT)
 
 
 # --------------------------------------------------------------------------------- also
