@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import sqlite3
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -128,6 +129,10 @@ class Catalog:
         if existed and self.path.stat().st_size == 0 and not _has_content(self.path, "-wal"):
             raise CatalogError(damaged_catalog_message(self.path, "the file is empty (0 bytes)"))
         try:
+            if not existed and not readonly:
+                # a new catalog appears whole: SQLite creates an empty file first, which a
+                # reader opening it at that instant would take for a damaged one
+                _create(self.path)
             if readonly:
                 uri = self.path.resolve().as_uri() + "?mode=ro"
                 self._conn = sqlite3.connect(uri, uri=True, timeout=30.0, isolation_level=None)
@@ -136,16 +141,9 @@ class Catalog:
             self._conn = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
             self._conn.execute("PRAGMA journal_mode=WAL")
             self._conn.execute("PRAGMA synchronous=NORMAL")
-            if existed:
-                self._check()
+            self._check()
             with self._transaction():
-                for statement in _SCHEMA.split(";"):
-                    if statement.strip():
-                        self._conn.execute(statement)
-                self._conn.execute(
-                    "INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', ?)",
-                    (SCHEMA_VERSION,),
-                )
+                _add_schema(self._conn)
         except sqlite3.Error as exc:
             self.close()
             raise self.error(exc) from None
@@ -316,6 +314,29 @@ class Catalog:
 
     def _count(self) -> int:
         return self._conn.execute("SELECT COUNT(*) FROM points").fetchone()[0]
+
+
+def _add_schema(conn: sqlite3.Connection) -> None:
+    """Create the tables that do not exist yet and record the schema version."""
+    for statement in _SCHEMA.split(";"):
+        if statement.strip():
+            conn.execute(statement)
+    conn.execute("INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', ?)",
+                 (SCHEMA_VERSION,))
+
+
+def _create(path: Path) -> None:
+    """Write an empty catalog to a temporary file and rename it to ``path``."""
+    tmp = path.with_name(path.name + ".new")
+    tmp.unlink(missing_ok=True)
+    conn = sqlite3.connect(tmp, isolation_level=None)
+    try:
+        conn.execute("BEGIN IMMEDIATE")
+        _add_schema(conn)
+        conn.execute("COMMIT")
+    finally:
+        conn.close()
+    os.replace(tmp, path)
 
 
 def _has_content(path: Path, suffix: str) -> bool:
