@@ -313,17 +313,19 @@ def _describe(rundir: Path, runner: Any) -> list[tuple[str, str]]:
     except runner.RunDirError as err:
         summary = None
         lines.append(("summary", str(err)))
-    if summary is not None:
-        lines.append(("status", f"{summary['status']} at step {summary['step']} of "
-                                f"{summary['steps']} (t = {summary['time']:.6g}, "
-                                f"dt = {summary['dt']:.6g})"))
-        lines.append(("particles", str(summary["n_particles"])))
-        lines.append(("wall time", f"{summary['wall_time_s']:.1f} s, "
-                                   f"{summary['particle_steps_per_s']:.3g} particle-steps/s"))
-        if summary["message"]:
-            lines.append(("message", summary["message"]))
-    elif not any(name == "summary" for name, _ in lines):
-        lines.append(("status", "running, or stopped without a summary (killed?)"))
+    else:
+        if summary is None:
+            lines.append(("status", "running, or stopped without a summary (killed?)"))
+        else:
+            lines.append(("status", f"{summary['status']} at step {summary['step']} of "
+                                    f"{summary['steps']} (t = {summary['time']:.6g}, "
+                                    f"dt = {summary['dt']:.6g})"))
+            lines.append(("particles", str(summary["n_particles"])))
+            lines.append(("wall time", f"{summary['wall_time_s']:.1f} s, "
+                                       f"{summary['particle_steps_per_s']:.3g} "
+                                       "particle-steps/s"))
+            if summary["message"]:
+                lines.append(("message", summary["message"]))
     try:
         step = runner.checkpoint_step(rundir / runner.CHECKPOINT)
     except runner.RunDirError as err:

@@ -238,11 +238,10 @@ class _Run:
             with stop.installed():
                 if fresh:
                     sim.compute_forces(update=False)
-                    sim.check_health()  # nothing broken is written, not even step 0
+                    self.checkpoint(sim)  # its health check comes before anything is written
                     thermo(sim.observer_context)
                     if frames is not None:
                         frames.append(sim.frame(contacts=out.contacts))
-                    self.checkpoint(sim)
                 else:
                     self.checkpoint_step = sim.step
                 sim.add_observer(thermo, out.thermo_every)
@@ -435,15 +434,11 @@ def write_checkpoint(path: Path, data: dict[str, Any]) -> None:
 
 def read_checkpoint(path: Path) -> dict[str, Any]:
     """Read a file written by :func:`write_checkpoint` back into nested dicts."""
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            plain = json.loads(str(z["__plain__"]))
-            data: dict[str, Any] = {}
-            for key in z.files:
-                if key != "__plain__":
-                    _set(data, key, z[key])
-    except Exception as err:  # zip, npy, JSON and I/O errors alike: the file is damaged
-        raise RunDirError(_damaged_checkpoint(path, err)) from None
+    data: dict[str, Any] = {}
+    with _checkpoint_archive(path) as (z, plain):
+        for key in z.files:
+            if key != "__plain__":
+                _set(data, key, z[key])
     for key, value in plain.items():
         _set(data, key, value)
     return data
@@ -583,19 +578,25 @@ def checkpoint_step(path: Path) -> int | None:
     :class:`RunDirError` if it is damaged."""
     if not path.is_file():
         return None
+    with _checkpoint_archive(path) as (_, plain):
+        return int(plain["sim/step"])
+
+
+@contextmanager
+def _checkpoint_archive(path: Path) -> Iterator[tuple[Any, dict[str, Any]]]:
+    """The open archive of a checkpoint and its plain values; :class:`RunDirError` naming
+    the file and the way out if it cannot be read (zip, npy, JSON and I/O errors alike)."""
     try:
         with np.load(path, allow_pickle=False) as z:
-            return int(json.loads(str(z["__plain__"]))["sim/step"])
-    except Exception as err:  # zip, npy, JSON and I/O errors alike: the file is damaged
-        raise RunDirError(_damaged_checkpoint(path, err)) from None
-
-
-def _damaged_checkpoint(path: Path, err: Exception) -> str:
-    size = path.stat().st_size if path.is_file() else 0
-    what = "empty" if size == 0 else f"truncated or not a checkpoint ({type(err).__name__}: {err})"
-    return (f"{path}: the checkpoint is damaged: {what}. The run cannot continue from it; "
-            f"move it aside and start the run again: grainflow run "
-            f"{path.parent / CONFIG} -o {path.parent} --overwrite")
+            yield z, json.loads(str(z["__plain__"]))
+    except Exception as err:
+        size = path.stat().st_size if path.is_file() else 0
+        what = ("empty" if size == 0 else
+                f"truncated or not a checkpoint ({type(err).__name__}: {err})")
+        raise RunDirError(f"{path}: the checkpoint is damaged: {what}. The run cannot "
+                          "continue from it; move it aside and start the run again: "
+                          f"grainflow run {path.parent / CONFIG} -o {path.parent} "
+                          "--overwrite") from None
 
 
 def read_summary(rundir: Path) -> dict[str, Any] | None:

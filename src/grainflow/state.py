@@ -80,6 +80,17 @@ class _Arrays(dict):
         return self[name]
 
 
+def speeds(v: np.ndarray) -> np.ndarray:
+    """(N,) ``|v|`` of (N, d) velocities, without overflow for huge ones (each row is
+    scaled by its largest component before squaring); inf where a component is not finite."""
+    v = np.asarray(v, dtype=float)
+    with np.errstate(all="ignore"):
+        scale = np.abs(v).max(axis=1) if len(v) else np.zeros(0)
+        unit = v / np.where(scale > 0, scale, 1.0)[:, None]
+        speed = scale * np.sqrt(np.einsum("ij,ij->i", unit, unit))
+    return np.where(np.isfinite(v).all(axis=1), speed, np.inf)
+
+
 @dataclass
 class _Extra:
     shape: tuple[int, ...]

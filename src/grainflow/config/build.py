@@ -293,32 +293,29 @@ def _misplaced(config: RunConfig, state: ParticleState, k: int, pop,
 def _behind_wall(wall, x3: np.ndarray) -> tuple[np.ndarray, str, str]:
     """Which centres ``x3`` (N, 3) lie on the side of ``wall`` that it never acts on, for the
     walls that divide space (planes, infinite cylinders); where that is and the wall, in
-    words. Walls of zero direction are left to their own check."""
-    def unit(v) -> np.ndarray | None:
-        u = np.array([*v, 0.0][:3], dtype=float)
-        norm = np.linalg.norm(u)
-        return u / norm if norm > 0 else None
+    words. A wall whose fields do not make a shape is left to :func:`_add_walls`."""
+    from grainflow.walls import Cylinder, Plane
 
     none = np.zeros(len(x3), dtype=bool)
-    if wall.shape == "plane" and (n := unit(wall.normal)) is not None:
-        return ((x3 - _point3(wall.point)) @ n < 0, "behind",
+    try:
+        shapes = wall_shapes(wall)
+    except ValueError:
+        return none, "", ""
+    shape = shapes[0] if len(shapes) == 1 else None
+    if isinstance(shape, Plane):
+        return ((x3 - shape.point) @ np.array(shape.normal) < 0, "behind",
                 f"a plane through {wall.point!r} acting on the side its normal "
                 f"{wall.normal!r} points to")
-    if (wall.shape == "cylinder" and not any(map(math.isfinite, wall.axial_range))
-            and (a := unit(wall.axis_direction)) is not None):
-        d = x3 - _point3(wall.axis_point)
+    if isinstance(shape, Cylinder) and not any(map(math.isfinite, shape.axial_range)):
+        a = np.array(shape.axis_direction)
+        d = x3 - shape.axis_point
         r = np.linalg.norm(d - np.outer(d @ a, a), axis=1)
-        kind = "tube" if wall.inside else "post"
-        return ((r > wall.radius) if wall.inside else (r < wall.radius),
-                "outside" if wall.inside else "inside",
-                f"an infinite {kind} of radius {wall.radius:g} around {wall.axis_point!r}, "
-                f"inside = {str(wall.inside).lower()}")
+        kind = "tube" if shape.inside else "post"
+        return ((r > shape.radius) if shape.inside else (r < shape.radius),
+                "outside" if shape.inside else "inside",
+                f"an infinite {kind} of radius {shape.radius:g} around {wall.axis_point!r}, "
+                f"inside = {str(shape.inside).lower()}")
     return none, "", ""
-
-
-def _point3(v) -> np.ndarray:
-    """A wall point of 2 or 3 components as 3 components (z = 0)."""
-    return np.array([*v, 0.0][:3], dtype=float)
 
 
 def _region(region, box: Box):

@@ -45,7 +45,7 @@ from grainflow.frame import PAIR, WALL, Contacts, Frame
 from grainflow.kernels.health import ARRAY_OF_CODE, HEALTHY, TOO_FAST, scan_state
 from grainflow.kernels.pair_loop import max_pair_overlap, max_relative_overlap
 from grainflow.models.base import ContactLaw
-from grainflow.state import ParticleState
+from grainflow.state import ParticleState, speeds
 
 
 class InstabilityError(RuntimeError):
@@ -441,8 +441,7 @@ class Simulation:
         if code == HEALTHY:
             return
         if code == TOO_FAST:
-            largest = float(np.abs(st.v[i]).max())  # scaled: |v| may overflow when squared
-            speed = largest * float(np.linalg.norm(st.v[i] / largest))
+            speed = float(speeds(st.v[i:i + 1])[0])  # |v| may overflow when squared
             raise InstabilityError(
                 self.step, int(st.id[i]),
                 f"it moves {speed * self.dt / st.radius[i]:.3g} radii per step (|v| = "
@@ -503,11 +502,10 @@ class Simulation:
                     f"{self._shortest_scale()}) or nothing holds it there (add a wall or a "
                     "delete updater)")
 
-    def _mechanical_energy(self) -> float | None:
-        """Kinetic, rotational and field energy now; None when some operation can supply
+    def _field_energy(self) -> float | None:
+        """Energy stored in the operations' fields now; None when some operation can supply
         energy the balance does not count (see ``Force.potential_energy``)."""
-        st = self.state
-        total = st.kinetic_energy() + st.rotational_energy()
+        total = 0.0
         for op in (*self.interactions, *self.forces):
             e = op.potential_energy(self.context)
             if e is None:
@@ -519,31 +517,31 @@ class Simulation:
         """An upper bound of the elastic energy pair and wall contacts hold now:
         ``2 sum |F| delta`` (the integral of a force growing with the overlap is at most
         ``|F| delta``; the factor 2 covers tangential springs)."""
-        st = self.state
-        c = self.contacts()
-        touching = (c.kind == PAIR) | (c.kind == WALL)
-        if not touching.any():
-            return 0.0
-        order = np.argsort(st.id)
-        index_of = lambda ids: order[np.searchsorted(st.id, ids, sorter=order)]  # noqa: E731
-        i = index_of(c.i[touching])
-        reach = st.radius[i].copy()
-        pair = c.kind[touching] == PAIR
-        reach[pair] += st.radius[index_of(c.j[touching][pair])]
-        overlap = np.maximum(reach - np.linalg.norm(c.branch[touching], axis=1), 0.0)
-        return 2.0 * float(np.sum(np.linalg.norm(c.force[touching], axis=1) * overlap))
+        if not self.forces_current:
+            self.compute_forces(update=False)
+        radius = self.state.radius
+        total = 0.0
+        for op in (*self.interactions, *self.forces):
+            for r in op.contacts(self.context):  # particle indices, not ids
+                if r.kind not in (PAIR, WALL):
+                    continue
+                reach = radius[r.i] + (radius[r.j] if r.kind == PAIR else 0.0)
+                overlap = np.maximum(reach - np.linalg.norm(r.branch, axis=1), 0.0)
+                total += float(np.sum(np.linalg.norm(r.force, axis=1) * overlap))
+        return 2.0 * total
 
     def _check_energy(self) -> None:
         """Mechanical energy may not grow past its reference (the first check after a
         run starts or the particles were edited) by more than the allowance."""
-        energy = self._mechanical_energy()
-        if energy is None:
+        field = self._field_energy()
+        if field is None:
             self._energy_ref = None
             return
         st = self.state
+        kinetic = st.kinetic_energy() + st.rotational_energy()
+        energy = kinetic + field
         ref = self._energy_ref
         if ref is None:
-            kinetic = st.kinetic_energy() + st.rotational_energy()
             elastic = self._elastic_energy_bound()
             allowance = (elastic + ENERGY_MARGIN * (kinetic + elastic)
                          + 1e-9 * (abs(energy) + kinetic))

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
-__all__ = ["damaged_name"]
+__all__ = ["damaged_name", "move_aside"]
 
 
 def damaged_name(path: Path) -> Path:
@@ -15,3 +16,10 @@ def damaged_name(path: Path) -> Path:
         i += 1
         candidate = path.with_name(f"{path.name}.damaged.{i}")
     return candidate
+
+
+def move_aside(path: Path) -> Path:
+    """Rename ``path`` to :func:`damaged_name` and return the new path."""
+    target = damaged_name(path)
+    os.replace(path, target)
+    return target

@@ -48,7 +48,7 @@ import numpy as np
 from grainflow import __version__
 from grainflow.engine.simulation import InstabilityError
 from grainflow.frame import CONTACT_KINDS, PAIR, Box, Contacts, Frame
-from grainflow.io.aside import damaged_name
+from grainflow.io.aside import damaged_name, move_aside
 
 __all__ = ["DEFAULT_MAX_ROWS", "DamagedFileError", "NonFiniteFrameError", "TrajectoryWriter",
            "check_finite_frame", "count_frames", "max_rows_for", "read_frame", "read_frames",
@@ -378,8 +378,9 @@ def repair_frames(path: str | os.PathLike[str], resume_step: int | None = None) 
 
     Meant for a file that raised :class:`DamagedFileError`; on a whole file it rewrites the
     same frames (and still keeps the original as ``.damaged``). Whatever HDF5 cannot see
-    is lost: in particular a truncated file often loses chunk-index metadata that HDF5
-    keeps near the end of the file, and then no frame at all can be salvaged.
+    is lost: a truncated file keeps about the frames before the cut (the bounded row axis,
+    :data:`DEFAULT_MAX_ROWS`), while one written before that bound keeps its chunk index
+    near the end of the file and then loses every frame.
     """
     path = Path(path)
     if not path.exists():
@@ -391,8 +392,8 @@ def repair_frames(path: str | os.PathLike[str], resume_step: int | None = None) 
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    damaged = damaged_name(path)
     if kept:
+        damaged = damaged_name(path)
         try:
             os.link(path, damaged)  # keep the original under its new name, then swap atomically
         except OSError:
@@ -401,7 +402,7 @@ def repair_frames(path: str | os.PathLike[str], resume_step: int | None = None) 
         what = f"kept its first {kept} whole frame(s) in a new {path.name}"
     else:
         tmp.unlink(missing_ok=True)
-        os.replace(path, damaged)
+        damaged = move_aside(path)
         what = f"no whole frame could be salvaged; {path.name} will be started anew"
     warnings.warn(f"repair_frames({path}): {what}; the damaged original is kept as {damaged}",
                   RuntimeWarning, stacklevel=2)
@@ -754,13 +755,10 @@ def _salvage(path: Path, tmp: Path, resume_step: int | None) -> int:
         try:
             if src["parameters/grainflow"].attrs.get("layout") != LAYOUT.encode():
                 return 0
-            dim, periodic, has_contacts = _layout_of(src)
+            dim, _, has_contacts = _layout_of(src)
             n_frames = _complete_frames(src)
-            compression = src[_PARTICLE_FIELDS[0].element + "/value"].compression
-            max_rows = _max_rows_of(src)
         except (OSError, KeyError, RuntimeError, ValueError, TypeError):
             return 0
-        box = Box(lo=np.zeros(dim), hi=np.ones(dim), periodic=periodic)
         writer: TrajectoryWriter | None = None
         last: Frame | None = None
         try:
@@ -773,8 +771,7 @@ def _salvage(path: Path, tmp: Path, resume_step: int | None) -> int:
                 if resume_step is not None and frame.step > resume_step:
                     break
                 if writer is None:
-                    writer = TrajectoryWriter(tmp, dim, box, contacts=has_contacts,
-                                              compression=compression, max_rows=max_rows)
+                    writer = _copy_writer(src, tmp)
                 writer.append(frame)
                 last = frame
                 kept += 1
@@ -784,6 +781,15 @@ def _salvage(path: Path, tmp: Path, resume_step: int | None) -> int:
     finally:
         src.close()
     return kept
+
+
+def _copy_writer(src: h5py.File, path: Path) -> TrajectoryWriter:
+    """A new trajectory at ``path`` with the layout, compression and row bound of ``src``."""
+    dim, periodic, has_contacts = _layout_of(src)
+    return TrajectoryWriter(path, dim, Box(lo=np.zeros(dim), hi=np.ones(dim), periodic=periodic),
+                            contacts=has_contacts,
+                            compression=src[_PARTICLE_FIELDS[0].element + "/value"].compression,
+                            max_rows=_max_rows_of(src))
 
 
 def _max_rows_of(f: h5py.File) -> int:
@@ -909,13 +915,9 @@ def _rewrite(path: Path, resume_step: int | None) -> None:
     """Copy the frames to keep into a clean file and atomically replace ``path`` with it."""
     tmp = path.with_name(path.name + ".recover")
     with _open_for_read(path) as src:
-        dim, periodic, has_contacts = _layout_of(src)
         keep = _frames_to_keep(src, resume_step)
-        compression = src[_PARTICLE_FIELDS[0].element + "/value"].compression
-        box = Box(lo=np.zeros(dim), hi=np.zeros(dim), periodic=periodic)
         try:
-            with TrajectoryWriter(tmp, dim, box, contacts=has_contacts, compression=compression,
-                                  max_rows=_max_rows_of(src)) as dst:
+            with _copy_writer(src, tmp) as dst:
                 for k in range(keep):
                     dst.append(_read(src, k))
         except BaseException:

@@ -8,7 +8,6 @@ it also logs the state a run starts from (step 0 of a fresh run), once. The run 
 from __future__ import annotations
 
 import math
-import os
 import time
 import warnings
 from pathlib import Path
@@ -17,7 +16,8 @@ import numpy as np
 
 from grainflow.engine.operations import ObserverContext
 from grainflow.engine.simulation import InstabilityError
-from grainflow.io.aside import damaged_name
+from grainflow.io.aside import move_aside
+from grainflow.state import speeds
 
 __all__ = ["THERMO_COLUMNS", "ThermoLog"]
 
@@ -55,7 +55,7 @@ class ThermoLog:
         self.moved_aside: Path | None = None  # where a damaged log went on resume
         problem = _check_csv(path, resume_step) if resume_step is not None and path.is_file() else None
         if problem is not None:
-            self.moved_aside = _move_aside(path)
+            self.moved_aside = move_aside(path)
             warnings.warn(
                 f"ThermoLog: {path} cannot be continued ({problem}); it was moved to "
                 f"{self.moved_aside} and a new {path.name} starts at step {resume_step}",
@@ -101,14 +101,8 @@ class ThermoLog:
         """Raise InstabilityError for a row with a non-finite value (nothing is written)."""
         column = next(name for name, value in zip(THERMO_COLUMNS, row)
                       if not math.isfinite(float(value)))
-        v = np.asarray(ctx.state.v)
-        particle = -1
-        if len(v):
-            with np.errstate(all="ignore"):  # speeds near 1e300 m/s: scale before squaring
-                scale = np.abs(v).max(axis=1, keepdims=True)
-                speed = scale[:, 0] * np.sqrt(((v / np.where(scale > 0, scale, 1.0)) ** 2).sum(axis=1))
-            speed = np.where(np.isfinite(v).all(axis=1), speed, np.inf)  # NaN/inf first
-            particle = int(np.asarray(ctx.state.id)[int(np.argmax(speed))])
+        st = ctx.state
+        particle = int(st.id[int(np.argmax(speeds(st.v)))]) if st.n else -1  # NaN/inf first
         raise InstabilityError(
             ctx.step, particle,
             f"thermo column {column!r} is {row[THERMO_COLUMNS.index(column)]} (particle id "
@@ -151,13 +145,6 @@ def _check_csv(path: Path, step: int) -> str | None:
             return f"line {number}: step {row_step} does not follow step {last}"
         last = row_step
     return None
-
-
-def _move_aside(path: Path) -> Path:
-    """Rename ``path`` to the first free ``<name>.damaged[.i]`` and return the new path."""
-    target = damaged_name(path)
-    os.replace(path, target)
-    return target
 
 
 def _trim_csv(path: Path, step: int) -> int | None:
