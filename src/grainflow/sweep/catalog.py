@@ -95,14 +95,20 @@ def damaged_catalog_message(path: Path, problem: str) -> str:
     )
 
 
-def move_aside(path: Path) -> Path:
-    """Rename a damaged catalog (and its -wal/-shm files) to ``<name>.damaged[-N]``."""
+def damaged_target(path: Path) -> Path:
+    """A free ``<name>.damaged-<UTC time>[-N]`` beside ``path`` (a file or a directory)."""
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S")
     target = path.with_name(f"{path.name}.damaged-{stamp}")
     n = 1
     while target.exists():
         n += 1
         target = path.with_name(f"{path.name}.damaged-{stamp}-{n}")
+    return target
+
+
+def move_aside(path: Path) -> Path:
+    """Rename a damaged catalog (and its -wal/-shm files) to :func:`damaged_target`."""
+    target = damaged_target(path)
     for suffix in ("-wal", "-shm"):
         side = path.with_name(path.name + suffix)
         if side.exists():

@@ -51,6 +51,7 @@ from grainflow.sweep.catalog import (
     CATALOG_NAME,
     Catalog,
     CatalogError,
+    damaged_target,
     move_aside,
     now,
 )
@@ -252,12 +253,7 @@ def _same_config(written: dict[str, Any], config: dict[str, Any]) -> bool:
 
 
 def _move_damaged(rundir: Path) -> Path:
-    stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
-    target = rundir.with_name(f"{rundir.name}.damaged-{stamp}")
-    n = 1
-    while target.exists():
-        n += 1
-        target = rundir.with_name(f"{rundir.name}.damaged-{stamp}-{n}")
+    target = damaged_target(rundir)
     rundir.rename(target)
     return target
 
