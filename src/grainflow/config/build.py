@@ -15,6 +15,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from grainflow.config.regions import region_of
 from grainflow.config.schema import (ConfigError, DataFile, LatticeFill, ListFill, RandomFill,
                                      RunConfig, SizedPopulation)
 from grainflow.engine.forces import Drag, Gravity
@@ -319,18 +320,7 @@ def _behind_wall(wall, x3: np.ndarray) -> tuple[np.ndarray, str, str]:
 
 
 def _region(region, box: Box):
-    from grainflow.insertion import regions
-
-    if region is None:
-        return regions.BoxRegion(tuple(box.lo), tuple(box.hi))
-    if region.shape == "box":
-        return regions.BoxRegion(tuple(region.lo), tuple(region.hi))
-    if region.shape == "cylinder":
-        return regions.CylinderRegion(tuple(region.center), region.radius, region.lo,
-                                      region.hi, region.axis)
-    if region.shape == "halfspace":
-        return regions.HalfSpace(tuple(region.point), tuple(region.normal))
-    return regions.DiskRegion(tuple(region.center), region.radius)
+    return region_of(region, box.lo, box.hi)
 
 
 def _add_tethers(config: RunConfig, sim: Simulation) -> None:

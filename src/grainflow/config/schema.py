@@ -26,6 +26,7 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Di
                       ValidationInfo, field_validator, model_validator)
 
 from grainflow.config.contact import Contact
+from grainflow.config.regions import region_of
 from grainflow.config.units import parse_quantity
 from grainflow.scenarios import COMMON_SECTIONS, Scenario, get_scenario
 
@@ -696,7 +697,7 @@ def _placement_problems(config: RunConfig) -> list[str]:
         region = pop.region
         if region is None:
             if isinstance(pop, RandomFill) and box is not None:
-                problems += _overfull(pop, where, _region_volume(box, dim), dim)
+                problems += _overfull(pop, where, _region_volume(None, box), dim)
             continue
         bounds = _region_bounds(region, dim)
         if isinstance(bounds, str):
@@ -709,7 +710,7 @@ def _placement_problems(config: RunConfig) -> list[str]:
                             "axes (shrink the region, enlarge the box or make the axis "
                             "periodic)")
         if isinstance(pop, RandomFill):
-            problems += _overfull(pop, where, _region_volume(region, dim), dim)
+            problems += _overfull(pop, where, _region_volume(region, box), dim)
     for k, updater in enumerate(config.insert):
         # as LAMMPS's fix pour: grains are inserted inside the box
         bounds = _region_bounds(updater.region, dim)
@@ -739,28 +740,16 @@ def _region_bounds(region: Any, dim: int) -> tuple[list[float], list[float]] | s
     if region.shape == "halfspace":
         return ("'halfspace' is unbounded and cannot be filled; expected a region of shape "
                 f"'box' or {'disk' if dim == 2 else 'cylinder'!r}")
-    if region.shape == "box":
-        return region.lo, region.hi
-    if (region.shape == "disk") != (dim == 2):
+    if region.shape != "box" and (region.shape == "disk") != (dim == 2):
         return (f"shape {region.shape!r} is {5 - dim}D but the run is {dim}D (dim = {dim}); "
                 f"expected 'box' or {'disk' if dim == 2 else 'cylinder'!r}")
-    if region.shape == "disk":
-        return ([c - region.radius for c in region.center],
-                [c + region.radius for c in region.center])
-    off = [a for a in range(3) if a != region.axis]
-    lo, hi = [0.0] * 3, [0.0] * 3
-    for a, c in zip(off, region.center):
-        lo[a], hi[a] = c - region.radius, c + region.radius
-    lo[region.axis], hi[region.axis] = region.lo, region.hi
-    return lo, hi
+    lo, hi = region_of(region).bounds()
+    return list(lo), list(hi)
 
 
-def _region_volume(region: Any, dim: int) -> float:
-    """Volume (area in 2D) of a bounded fill region or of the box."""
-    if getattr(region, "shape", "box") == "box":
-        return math.prod(h - lo for lo, h in zip(region.lo, region.hi))
-    area = math.pi * region.radius**2
-    return area if region.shape == "disk" else area * (region.hi - region.lo)
+def _region_volume(region: Any, box: BoxSection) -> float:
+    """Volume (area in 2D) of a bounded fill region, or of the box (``region`` None)."""
+    return float((region_of(None, box.lo, box.hi) if region is None else region_of(region)).volume)
 
 
 def _show_region(region: Any) -> str:
