@@ -35,15 +35,16 @@ import time
 from pathlib import Path
 
 WORKER = r"""
-import json, sys, time
+import json, os, sys, time
 import numpy as np
-from grainflow.scenarios.chute import chute_simulation, chute_quarter
+from grainflow.scenarios.chute import chute_simulation, chute_cut
 data, steps, size = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 if size == "quarter":
-    sim = chute_quarter(data)
+    sim = chute_cut(0.5, 0.5, data)
 else:
     rx, ry = (int(v) for v in size.split("x"))
     sim = chute_simulation(data, replicate=(rx, ry))
+sim.threads = int(os.environ["NUMBA_NUM_THREADS"])  # the count measured, not "auto"
 sim.run(50)
 phases = {}
 b0 = sim.neighbors.builds

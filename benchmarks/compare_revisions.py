@@ -42,6 +42,7 @@ SETUP = {
                  "E_w=1000.0, lam=math.inf), 2, seed=0)\nprepare(sim)\nsim.run(500)\n"),
 }
 TIMED = r"""
+sim.threads = int(os.environ["NUMBA_NUM_THREADS"])  # the count measured, not "auto"
 steps = int(sys.argv[2])
 t0 = time.perf_counter()
 sim.run(steps)
@@ -55,7 +56,7 @@ def measure(src: Path, data: Path, steps: int, threads: int, layer: str,
             case: str = "chute") -> dict:
     env = dict(os.environ, PYTHONPATH=str(src), NUMBA_NUM_THREADS=str(threads),
                OMP_NUM_THREADS=str(threads), NUMBA_THREADING_LAYER=layer)
-    worker = "import json, sys, time\n" + SETUP[case] + TIMED
+    worker = "import json, os, sys, time\n" + SETUP[case] + TIMED
     out = subprocess.run([sys.executable, "-c", worker, str(data), str(steps)], env=env,
                          capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])

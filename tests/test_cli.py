@@ -165,7 +165,18 @@ def test_demo_verb_calls_the_hopper_demo(tmp_path: Path, monkeypatch) -> None:
     import grainflow.studies.hopper_demo as hopper_demo
 
     calls = []
-    monkeypatch.setattr(hopper_demo, "demo", lambda out: calls.append(out))
+    monkeypatch.setattr(hopper_demo, "demo", lambda out, **kw: calls.append((out, kw)))
     result = invoke("demo", "-o", str(tmp_path / "demo"))
     assert result.exit_code == 0, result.output
-    assert calls == [tmp_path / "demo"]
+    assert calls == [(tmp_path / "demo", {"threads": 1, "progress": "auto"})]
+    result = CliRunner().invoke(app, ["demo", "-o", str(tmp_path / "d2"), "--threads", "auto",
+                                      "--progress", "plain"])
+    assert result.exit_code == 0, result.output
+    assert calls[-1] == (tmp_path / "d2", {"threads": "auto", "progress": "plain"})
+
+
+@pytest.mark.parametrize("value", ["two", "0", "-1", "1.5", "99999"])
+def test_bad_threads_is_a_usage_error(value: str) -> None:
+    result = CliRunner().invoke(app, ["--threads", value, "info", "."])
+    assert result.exit_code == 2
+    assert "threads:" in result.output and "expected 'auto' or a count" in result.output

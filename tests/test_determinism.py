@@ -6,7 +6,8 @@ history carry, the re-sort and the deterministic force gather are all exercised.
 
 * The same run on 1 and on 2 numba threads gives bitwise identical positions, velocities
   and spins (in subprocesses with ``NUMBA_NUM_THREADS``, and within one process with
-  ``numba.set_num_threads``).
+  ``numba.set_num_threads``), with the simulation's ``threads`` fixed (not ``"auto"``;
+  switching mid-run is tested in test_threads.py).
 * A run saved with ``state_dict()`` after k steps, loaded into a freshly built simulation
   and continued, is bitwise identical to the uninterrupted run (velocity Verlet and AB2).
 """
@@ -63,6 +64,7 @@ SCRIPT = textwrap.dedent("""
     from test_determinism import _snapshot, STEPS
     assert numba.get_num_threads() == {threads}, numba.get_num_threads()
     sim = build_pile()
+    sim.threads = {threads}
     sim.run(STEPS)
     np.savez({out!r}, **_snapshot(sim))
 """)
@@ -95,6 +97,7 @@ def test_thread_count_bitwise_in_process():
         for threads in (1, 2):
             numba.set_num_threads(threads)
             sim = build_pile()
+            sim.threads = threads  # not "auto": it could run the small pile on one thread
             sim.run(STEPS // 2)
             snaps.append(_snapshot(sim))
     finally:

@@ -97,7 +97,7 @@ def _mixed_run(threads: int) -> Simulation:
         granular.set_all(kn=2e3, gamma_n=10.0, mu=0.4)
         soft = SoftLaw(3)
         soft.set_all(epsilon=200.0, mu_k=1.0)
-        sim = Simulation(st, 2e-4, granular)
+        sim = Simulation(st, 2e-4, granular, threads=min(threads, numba.config.NUMBA_NUM_THREADS))
         sim.add_interaction(soft, types=[(1, 1)])
         sim.add_force(WallForce([Plane((0, 0), (0, 1))], granular, 2))
         sim.add_force(Gravity([0.0, -10.0]))

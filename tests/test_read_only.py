@@ -138,9 +138,9 @@ def test_sliding_pair_is_at_the_coulomb_cap() -> None:
 
 @pytest.mark.usefixtures("numba_one_thread")
 def test_chute_history_unchanged_by_read_only_paths() -> None:
-    from grainflow.scenarios.chute import chute_quarter
+    from grainflow.scenarios.chute import chute_cut
 
-    sim = chute_quarter()
+    sim = chute_cut(0.5, 0.5)
     sim.run(20)
     before = history_by_ids(sim)
     assert sum(np.any(h != 0) for h in before.values()) > 1000

@@ -18,11 +18,14 @@ import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, Any, Optional
+from typing import TYPE_CHECKING, Annotated, Any, Optional
 
 import typer
 
 from grainflow import __version__
+
+if TYPE_CHECKING:
+    from grainflow.engine.threads import Threads
 
 app = typer.Typer(
     name="grainflow", no_args_is_help=True, add_completion=False,
@@ -31,8 +34,10 @@ app = typer.Typer(
 
 _state: dict[str, Any] = {"debug": False}
 
-ThreadsOption = Annotated[Optional[int], typer.Option(
-    "--threads", min=1, help="Number of compute threads (numba); default: all cores.")]
+ThreadsOption = Annotated[Optional[str], typer.Option(
+    "--threads", help="Compute threads: 'auto' (measure during the run whether one thread or "
+                      "all cores is faster; the default unless the config says otherwise) or "
+                      "a count.")]
 ProgressOption = Annotated[str, typer.Option(
     help="Progress display: auto (a bar on a terminal, plain lines otherwise), rich, plain "
          "or none.")]
@@ -56,7 +61,7 @@ def main(
     if not debug:
         warnings.showwarning = _one_line_warning
     with _errors():
-        _set_threads(threads)
+        _state["threads"] = _threads(threads)
 
 
 # ---------------------------------------------------------------------------------- verbs
@@ -75,9 +80,8 @@ def run(
 
     rundir = output if output is not None else Path.cwd() / config.stem
     with _errors():
-        _set_threads(threads)
         summary = run_config(config, rundir, overwrite=overwrite, progress=progress,
-                             log=lambda line: typer.echo(line, err=True))
+                             threads=_threads(threads), log=lambda line: typer.echo(line, err=True))
     typer.echo(f"finished: {summary.step} steps, N = {summary.n_particles}, "
                f"{summary.wall_time_s:.1f} s, {summary.particle_steps_per_s:.3g} "
                f"particle-steps/s -> {rundir}")
@@ -93,8 +97,7 @@ def resume(
     from grainflow.runner import resume_run
 
     with _errors():
-        _set_threads(threads)
-        summary = resume_run(rundir, progress=progress)
+        summary = resume_run(rundir, progress=progress, threads=_threads(threads))
     typer.echo(f"finished: {summary.step} steps, N = {summary.n_particles}, "
                f"{summary.wall_time_s:.1f} s in total -> {rundir}")
 
@@ -131,12 +134,14 @@ def export(
 def demo(
     output: Annotated[Path, typer.Option("--output", "-o", help="Run directory.")]
     = Path("grainflow-demo"),
+    threads: ThreadsOption = None,
+    progress: ProgressOption = "auto",
 ) -> None:
     """Run a small 2D hopper discharge: flow rate, snapshot.png and flow_rate.png."""
     with _errors():
         from grainflow.studies.hopper_demo import demo as hopper_demo
 
-        hopper_demo(output)
+        hopper_demo(output, threads=_threads(threads) or "auto", progress=progress)
 
 
 @app.command()
@@ -235,11 +240,19 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
     print(f"warning: {text}", file=file if file is not None else sys.stderr)
 
 
-def _set_threads(threads: int | None) -> None:
-    if threads is not None:
-        from grainflow.runner import set_threads
+def _threads(text: str | None) -> "Threads | None":
+    """``--threads``: ``"auto"`` or a count (a count also becomes numba's, as a cap for the
+    whole process); None: the verb's own option was not given, so the global one, if any."""
+    if text is None:
+        return _state.get("threads")
+    import numba
 
-        set_threads(threads)
+    from grainflow.engine.threads import check_threads
+
+    value = check_threads("auto" if text == "auto" else int(text) if text.isdigit() else text)
+    if value != "auto":
+        numba.set_num_threads(value)
+    return value
 
 
 def _benchmark_main() -> Callable[[list[str]], Any]:

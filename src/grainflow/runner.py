@@ -37,6 +37,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
+import numba
 import numpy as np
 import tomli_w
 
@@ -44,6 +45,7 @@ from grainflow import __version__
 from grainflow.config.build import build_simulation, total_steps
 from grainflow.config.schema import RunConfig, load_config, resolved_dict
 from grainflow.engine.simulation import InstabilityError, Simulation
+from grainflow.engine.threads import Threads, check_threads
 from grainflow.io.thermo import THERMO_COLUMNS, ThermoLog
 from grainflow.progress import Progress, make_progress
 
@@ -51,7 +53,7 @@ Log = Callable[[str], None]
 
 __all__ = ["CHECKPOINT_VERSION", "RunDirError", "RunError", "RunInterrupted", "RunSummary",
            "RunUnstable", "checkpoint_step", "read_checkpoint", "read_manifest",
-           "read_summary", "record_outputs", "resume_run", "run_config", "set_threads", "write_checkpoint"]
+           "read_summary", "record_outputs", "resume_run", "run_config", "write_checkpoint"]
 
 #: Layout version of checkpoint files; a resume refuses other versions.
 CHECKPOINT_VERSION = 2
@@ -115,13 +117,14 @@ class RunSummary:
 # --------------------------------------------------------------------------- public API
 def run_config(config: RunConfig | Mapping[str, Any] | str | os.PathLike[str],
                rundir: str | os.PathLike[str], *, overwrite: bool = False,
-               resume: bool = False, threads: int | None = None,
+               resume: bool = False, threads: Threads | None = None,
                progress: str | Progress | None = None, log: Log | None = None) -> RunSummary:
     """Run a configuration (RunConfig, dict or TOML path) into ``rundir``.
 
     An existing non-empty ``rundir`` is refused unless ``overwrite`` (the outputs grainflow
     wrote there are deleted first, nothing else; ``log`` is told which) or ``resume``
-    (continue from its checkpoint if it has one). ``threads`` sets numba's thread count;
+    (continue from its checkpoint if it has one). ``threads`` (``"auto"`` or a count)
+    overrides the config's ``run.threads`` (:mod:`grainflow.engine.threads`);
     ``progress`` is ``"auto"`` (default), ``"rich"``, ``"plain"``, ``"none"`` or a
     :class:`~grainflow.progress.Progress`. Everything is validated before the run
     directory is touched. Raises :class:`~grainflow.config.schema.ConfigError`,
@@ -132,10 +135,11 @@ def run_config(config: RunConfig | Mapping[str, Any] | str | os.PathLike[str],
         return resume_run(rundir, threads=threads, progress=progress)
     cfg = config if isinstance(config, RunConfig) else load_config(config)
     display = _progress(progress, cfg)
-    set_threads(threads)
+    threads = check_threads(cfg.run.threads if threads is None else threads)
     outputs = _outputs_of(cfg)
     removed = _check_rundir(rundir, overwrite, outputs)
     sim = build_simulation(cfg)
+    _use_threads(sim, threads)
     total_steps(cfg, sim)  # a run that can never finish is refused here
     _prepare_rundir(rundir, removed)  # only now, when everything is known to be valid
     if removed and log is not None:
@@ -146,7 +150,7 @@ def run_config(config: RunConfig | Mapping[str, Any] | str | os.PathLike[str],
     return _Run(cfg, sim, rundir, display).execute(fresh=True)
 
 
-def resume_run(rundir: str | os.PathLike[str], *, threads: int | None = None,
+def resume_run(rundir: str | os.PathLike[str], *, threads: Threads | None = None,
                progress: str | Progress | None = None) -> RunSummary:
     """Continue the run in ``rundir`` from its last checkpoint."""
     rundir = Path(rundir)
@@ -164,26 +168,22 @@ def resume_run(rundir: str | os.PathLike[str], *, threads: int | None = None,
                           f"failure. Fix the configuration and start again: grainflow run "
                           f"CONFIG -o {rundir} --overwrite")
     cfg = load_config(rundir / CONFIG)
-    set_threads(threads)
+    threads = check_threads(cfg.run.threads if threads is None else threads)
     saved = read_checkpoint(rundir / CHECKPOINT)
     sim = build_simulation(cfg, prepare=False)
+    _use_threads(sim, threads)
     sim.load_state_dict(saved["sim"])
     run = _Run(cfg, sim, rundir, _progress(progress, cfg))
     run.load_state_dict(saved["runner"])
     return run.execute(fresh=False)
 
 
-def set_threads(threads: int | None) -> None:
-    """Set numba's number of threads (None: leave it)."""
-    if threads is None:
-        return
-    import numba
-
-    available = numba.config.NUMBA_NUM_THREADS
-    if not 1 <= threads <= available:
-        raise ValueError(f"threads: {threads} is not valid; expected 1 to {available} "
-                         "(NUMBA_NUM_THREADS)")
-    numba.set_num_threads(threads)
+def _use_threads(sim: Simulation, threads: Threads) -> None:
+    """``"auto"``, or a fixed count that also becomes numba's (for the work between runs:
+    set-up, outputs)."""
+    sim.threads = threads
+    if threads != "auto":
+        numba.set_num_threads(threads)
 
 
 # ------------------------------------------------------------------------- the run itself

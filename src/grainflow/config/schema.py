@@ -120,6 +120,17 @@ class RunSection(_Model):
         0.5, gt=0, description="overlap / radius beyond which the run is declared unstable")
     allow_unsafe_dt: StrictBool = Field(False, description="run even if dt > t_c/4 (diagnosis only)")
     minimize: StrictBool = Field(False, description="remove overlaps with FIRE before step 0")
+    threads: Literal["auto"] | int = Field(
+        "auto", description="compute threads: 'auto' (measure whether 1 or all is faster, "
+        "during the run) or a count; results are the same either way")
+
+    @field_validator("threads", mode="before")
+    @classmethod
+    def _threads(cls, value: Any) -> Any:
+        if value == "auto" or (isinstance(value, int) and not isinstance(value, bool)
+                               and value >= 1):
+            return value
+        raise ValueError("expected 'auto' or a thread count >= 1, e.g. threads = 2")
 
     @model_validator(mode="after")
     def _length_given(self) -> "RunSection":

@@ -33,6 +33,7 @@ import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
+import numba
 import numpy as np
 
 from grainflow.engine.integrators import VelocityVerlet
@@ -41,6 +42,7 @@ from grainflow.engine.operations import (Clock, ContactRows, Force, ForceContext
                                          Observer, ObserverContext, TimeScale, Updater,
                                          UpdateContext)
 from grainflow.engine.pair import PairInteraction
+from grainflow.engine.threads import Threads, ThreadTuner, check_threads
 from grainflow.frame import PAIR, WALL, Contacts, Frame
 from grainflow.kernels.health import ARRAY_OF_CODE, HEALTHY, TOO_FAST, scan_state
 from grainflow.kernels.pair_loop import max_pair_overlap, max_relative_overlap
@@ -115,13 +117,17 @@ class Simulation:
     allow_unsafe_dt:
         Warn instead of refusing a time step past an interaction's stability limit
         (diagnosis only).
+    threads:
+        ``"auto"`` (default): the run measures whether one thread or numba's current count
+        is faster, now and then, and uses that (:mod:`grainflow.engine.threads`); a count:
+        exactly that many. Results are bitwise the same either way.
     """
 
     def __init__(self, state: ParticleState, dt: float, law: ContactLaw | None = None, *,
                  skin: float | None = None, integrator: Integrator | None = None,
                  sort_every: int = 1, check_every: int = 100,
                  max_overlap_fraction: float = 0.5, seed: int | None = None,
-                 allow_unsafe_dt: bool = False) -> None:
+                 allow_unsafe_dt: bool = False, threads: Threads = "auto") -> None:
         if not (dt > 0 and np.isfinite(dt)):
             raise ValueError(f"dt: {dt!r} is not valid; expected a positive time step")
         self.state = state
@@ -159,6 +165,10 @@ class Simulation:
         self.rebuilds = 0
         self.wall_seconds = 0.0
         self.particle_steps = 0
+        self.threads = threads
+        #: ``(step, threads, seconds per particle-step)`` of every timed window of the
+        #: ``"auto"`` thread choice, over all runs (:class:`~grainflow.engine.threads.ThreadTuner`).
+        self.thread_log: list[tuple[int, int, float]] = []
         if law is not None:
             self.add_interaction(law)
 
@@ -172,6 +182,15 @@ class Simulation:
         if not (value > 0 and np.isfinite(value)):
             raise ValueError(f"dt: {value!r} is not valid; expected a positive time step")
         self.clock.dt = float(value)
+
+    @property
+    def threads(self) -> Threads:
+        """``"auto"`` or the fixed thread count of :meth:`run`."""
+        return self._threads
+
+    @threads.setter
+    def threads(self, value: Threads) -> None:
+        self._threads = check_threads(value)
 
     @property
     def time(self) -> float:
@@ -344,32 +363,44 @@ class Simulation:
         integ = self.integrator
         ctx = self.context
         clock = self.clock
+        before = numba.get_num_threads()
+        tuner = None
+        if self._threads == "auto":
+            tuner = ThreadTuner(before, log=self.thread_log)
+            tuner.begin(clock.step, self.state.n, self.particle_steps)
+        else:
+            numba.set_num_threads(min(self._threads, numba.config.NUMBA_NUM_THREADS))
         t0 = _time.perf_counter()
-        for _ in range(steps):
-            integ.pre_force(ctx)
-            self.compute_forces(update=True)
-            integ.post_force(ctx)
-            clock.step += 1
-            clock.time += clock.dt
-            self.particle_steps += self.state.n
-            for u in self.updaters:
-                if clock.step % u.every == 0:
-                    u.action(self._update_context)
-            if not self.forces_current:
-                self.compute_forces(update=False)
-            if self.check_every and clock.step % self.check_every == 0:
-                self.check_health()
-            else:
+        try:
+            for _ in range(steps):
+                integ.pre_force(ctx)
+                self.compute_forces(update=True)
+                integ.post_force(ctx)
+                clock.step += 1
+                clock.time += clock.dt
+                self.particle_steps += self.state.n
+                for u in self.updaters:
+                    if clock.step % u.every == 0:
+                        u.action(self._update_context)
+                if not self.forces_current:
+                    self.compute_forces(update=False)
+                if self.check_every and clock.step % self.check_every == 0:
+                    self.check_health()
+                else:
+                    for o in self.observers:
+                        if o.checked and clock.step % o.every == 0:
+                            self.check_state()
+                            break
                 for o in self.observers:
-                    if o.checked and clock.step % o.every == 0:
-                        self.check_state()
-                        break
-            for o in self.observers:
-                if clock.step % o.every == 0:
-                    o.action(self.observer_context)
-            if until is not None and until(self):
-                break
-        self.wall_seconds += _time.perf_counter() - t0
+                    if clock.step % o.every == 0:
+                        o.action(self.observer_context)
+                if tuner is not None and clock.step >= tuner.next_step:
+                    tuner.tick(clock.step, self.particle_steps)
+                if until is not None and until(self):
+                    break
+        finally:
+            self.wall_seconds += _time.perf_counter() - t0
+            numba.set_num_threads(before)
 
     # ------------------------------------------------------------ checks
     def time_scales(self) -> list[TimeScale]:

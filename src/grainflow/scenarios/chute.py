@@ -89,33 +89,40 @@ def _chute_model(st: ParticleState, sort_every: int = 1) -> Simulation:
     return sim
 
 
-def chute_quarter(data_path: str | Path | None = None) -> Simulation:
-    """About 8,000 grains: the chute cut to its x < Lx/2, y < Ly/2 quarter (still periodic).
+def chute_cut(fraction_x: float = 0.5, fraction_y: float = 0.5,
+              data_path: str | Path | None = None) -> Simulation:
+    """A smaller chute: the grains with ``x < fraction_x Lx`` and ``y < fraction_y Ly``, in a
+    box of that size (still periodic in x and y). ``chute_cut(0.5, 0.5)`` is about 8,000
+    grains; ``chute_cut(0.25, 0.125)`` about 1,000.
 
     Grains that would overlap by more than 1 % of a diameter across the new periodic seams
     are dropped (the later of each such pair), so the cut system starts without violent
-    contacts. Used for the size-scaling part of the benchmark. ``data_path`` defaults to the
-    shipped ``data.chute.gz``.
+    contacts. Used for the size-scaling benchmarks. ``data_path`` defaults to the shipped
+    ``data.chute.gz``.
     """
     from scipy.spatial import cKDTree
 
+    if not (0.0 < fraction_x <= 1.0 and 0.0 < fraction_y <= 1.0):
+        raise ValueError(f"fraction_x, fraction_y: {fraction_x!r}, {fraction_y!r}; each must "
+                         "be in (0, 1]")
     data = read_lammps_data(chute_files().data if data_path is None else data_path)
-    half = 0.5 * (data.hi[:2] - data.lo[:2])
-    keep = np.all(data.x[:, :2] - data.lo[:2] < half, axis=1)
+    keep_len = np.array([fraction_x, fraction_y]) * (data.hi[:2] - data.lo[:2])
+    keep = np.all(data.x[:, :2] - data.lo[:2] < keep_len, axis=1)
     idx = np.flatnonzero(keep)
     x = data.x[idx] - np.r_[data.lo[:2], 0.0]
     z_span = 10.0 * (np.ptp(x[:, 2]) + 1.0)
-    tree = cKDTree(np.c_[x[:, :2], x[:, 2] - x[:, 2].min()], boxsize=[half[0], half[1], z_span])
+    tree = cKDTree(np.c_[x[:, :2], x[:, 2] - x[:, 2].min()],
+                   boxsize=[keep_len[0], keep_len[1], z_span])
     radius = 0.5 * data.diameter[idx]
     drop = np.zeros(idx.size, dtype=bool)
     for a, b in sorted(tree.query_pairs(2.0 * radius.max())):
         if drop[a] or drop[b]:
             continue
         d = x[a] - x[b]
-        d[:2] -= half * np.rint(d[:2] / half)
+        d[:2] -= keep_len * np.rint(d[:2] / keep_len)
         if np.linalg.norm(d) < radius[a] + radius[b] - 0.02 * radius.max():
             drop[b] = True
-    sub = LammpsData(lo=np.r_[0.0, 0.0, data.lo[2]], hi=np.r_[half, data.hi[2]],
+    sub = LammpsData(lo=np.r_[0.0, 0.0, data.lo[2]], hi=np.r_[keep_len, data.hi[2]],
                      id=data.id[idx][~drop], type=data.type[idx][~drop],
                      diameter=data.diameter[idx][~drop], density=data.density[idx][~drop],
                      x=x[~drop], image=np.zeros((int((~drop).sum()), 3), dtype=np.int64),
