@@ -23,7 +23,8 @@ What runs:
    written as a LAMMPS ``atom_style sphere`` data file (positions, diameters, densities,
    velocities and spins to 17 significant digits) that *both* codes read back.
 2. The orifice opened: for each worker count, grainflow (a fresh process, ``NUMBA_NUM_THREADS``
-   and ``NUMBA_THREADING_LAYER=omp`` set before numba starts) and LAMMPS (``lmp``, 1 rank, and
+   and ``NUMBA_THREADING_LAYER=omp`` set before numba starts, the simulation's ``threads``
+   fixed to that count rather than ``"auto"``) and LAMMPS (``lmp``, 1 rank, and
    ``mpirun -np 2 lmp``, deck ``benchmarks/lammps/in.hopper3d``) run 50 warm-up steps, then
    ``--steps`` measured steps. grainflow's figure is the measured steps' particle-steps over
    their wall time, LAMMPS's the same over its own "Loop time" of the second ``run``. The
@@ -219,19 +220,6 @@ def settle(h: Hopper, x: np.ndarray, diameter: np.ndarray, *, max_steps: int | N
            chunk: int = 1000, log=print) -> dict:
     """Settle the grains in the closed hopper (grainflow) until the kinetic energy per grain
     is below ``h.settle_quiet`` (or ``max_steps``); returns the state as arrays."""
-    import numba
-
-    max_steps = h.settle_max_steps if max_steps is None else max_steps
-    threads = numba.get_num_threads()
-    numba.set_num_threads(1)  # robust on a shared machine; two threads beside a busy
-    try:                      # process run far slower than one
-        return _settle(h, x, diameter, max_steps, chunk, log)
-    finally:
-        numba.set_num_threads(threads)
-
-
-def _settle(h: Hopper, x: np.ndarray, diameter: np.ndarray, max_steps: int, chunk: int,
-            log) -> dict:
     from grainflow.engine.forces import Gravity
     from grainflow.engine.simulation import Simulation
     from grainflow.frame import Box
@@ -242,8 +230,11 @@ def _settle(h: Hopper, x: np.ndarray, diameter: np.ndarray, max_steps: int, chun
     hi = np.array([h.radius + 1.0, h.radius + 1.0, float(x[:, 2].max()) + 2.0])
     st = ParticleState(3, Box(lo=lo, hi=hi, periodic=(False, False, False)))
     st.add_particles(x, 0.5 * diameter, density=h.density, ids=np.arange(1, h.n + 1))
+    max_steps = h.settle_max_steps if max_steps is None else max_steps
     law = hopper_law(h)
-    sim = Simulation(st, h.dt, law, skin=h.skin)
+    # one thread: robust on a shared machine (two threads beside a busy process run far
+    # slower than one), and the settled state does not depend on it
+    sim = Simulation(st, h.dt, law, skin=h.skin, threads=1)
     sim.add_force(WallForce(hopper_walls(h, closed=True), law, wall_type=1))
     sim.add_force(Gravity([0.0, 0.0, -1.0]))
     t0 = time.perf_counter()
@@ -321,8 +312,11 @@ def start_state(h: Hopper, workdir: str | Path | None = None, log=print) -> Path
     return path
 
 
-def hopper_simulation(h: Hopper, data_path: str | Path, sink_every: int = 20):
-    """The open hopper read from ``data_path``: grainflow's side of the benchmark."""
+def hopper_simulation(h: Hopper, data_path: str | Path, threads: int | str = "auto",
+                      sink_every: int = 20):
+    """The open hopper read from ``data_path``: grainflow's side of the benchmark
+    (``threads``: the simulation's thread count; the benchmark fixes it to the count it
+    measures, not ``"auto"``)."""
     from grainflow.engine.forces import Gravity
     from grainflow.engine.simulation import Simulation
     from grainflow.insertion import DeleteRegion, HalfSpace
@@ -332,7 +326,7 @@ def hopper_simulation(h: Hopper, data_path: str | Path, sink_every: int = 20):
     data = read_lammps_data(data_path)
     st = state_from_lammps_data(data, periodic=(False, False, False))
     law = hopper_law(h)
-    sim = Simulation(st, h.dt, law, skin=h.skin)
+    sim = Simulation(st, h.dt, law, skin=h.skin, threads=threads)
     sim.add_force(WallForce(hopper_walls(h), law, wall_type=1))
     sim.add_force(Gravity([0.0, 0.0, -1.0]))
     sim.add_updater(DeleteRegion(HalfSpace((0.0, 0.0, float(data.lo[2])), (0.0, 0.0, 1.0))),
@@ -341,13 +335,14 @@ def hopper_simulation(h: Hopper, data_path: str | Path, sink_every: int = 20):
 
 
 WORKER = r"""
-import json, sys, time
+import json, os, sys, time
 sys.path.insert(0, sys.argv[1])
 from hopper3d import Hopper, hopper_simulation
 from grainflow.frame import WALL
 h = Hopper(**json.loads(sys.argv[2]))
 data, steps, warmup = sys.argv[3], int(sys.argv[4]), int(sys.argv[5])
-sim = hopper_simulation(h, data)
+# the count measured, not "auto"
+sim = hopper_simulation(h, data, threads=int(os.environ["NUMBA_NUM_THREADS"]))
 n0 = sim.state.n
 c = sim.contacts()
 wall_contacts = int((c.kind == WALL).sum())
@@ -371,7 +366,7 @@ import cProfile, json, pstats, sys, io
 sys.path.insert(0, sys.argv[1])
 from hopper3d import Hopper, hopper_simulation
 h = Hopper(**json.loads(sys.argv[2]))
-sim = hopper_simulation(h, sys.argv[3])
+sim = hopper_simulation(h, sys.argv[3], threads=1)
 sim.run(50)
 pr = cProfile.Profile()
 pr.enable()

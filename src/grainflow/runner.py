@@ -114,6 +114,11 @@ class RunSummary:
         _atomic_write_text(rundir / SUMMARY, json.dumps(asdict(self), indent=2) + "\n")
 
 
+#: Steps between two looks at the stop flag that SIGINT/SIGTERM set, and between progress
+#: reports.
+UNTIL_EVERY = 10
+
+
 # --------------------------------------------------------------------------- public API
 def run_config(config: RunConfig | Mapping[str, Any] | str | os.PathLike[str],
                rundir: str | os.PathLike[str], *, overwrite: bool = False,
@@ -249,12 +254,15 @@ class _Run:
                     sim.add_observer(lambda s: frames.append(s.frame(contacts=out.contacts)),
                                      out.frames_every)
                 sim.add_observer(lambda s: self.progress.update(s.step, s.state.n,
-                                                                self.rate()), 10,
+                                                                self.rate()), UNTIL_EVERY,
                                  checked=False)
                 if out.checkpoint_every:
                     sim.add_observer(lambda _: self.checkpoint(sim), out.checkpoint_every)
                 self.progress.start(self.total, sim.step)
-                sim.run(max(0, self.total - sim.step), until=lambda s: stop.signum is not None)
+                # a signal is noticed within UNTIL_EVERY steps (runs of quiet steps between
+                # the checks go through the compiled step loop)
+                sim.run(max(0, self.total - sim.step), until=lambda s: stop.signum is not None,
+                        until_every=UNTIL_EVERY)
                 if self.checkpoint_step != sim.step:
                     self.checkpoint(sim)
                 interrupted = stop.signum if sim.step < self.total else None

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from grainflow.engine.fast_path import StepCall
 from grainflow.engine.operations import Force, ForceContext, TimeScale
 
 
@@ -21,6 +22,12 @@ def _add_body_force(force, mass, frozen, g0, g1, g2):
             force[i, 0] += m * g0
             force[i, 1] += m * g1
             force[i, 2] += m * g2
+
+
+@njit(cache=True)
+def _gravity_step(a, time, dt):
+    """:meth:`Gravity.compute` in the compiled step loop."""
+    _add_body_force(a[0], a[1], a[2], a[3], a[4], a[5])
 
 
 class Gravity(Force):
@@ -43,6 +50,11 @@ class Gravity(Force):
         st = ctx.state
         _add_body_force(st.force, st.mass, st.frozen, self.g[0], self.g[1], self.g[2])
 
+    def step_call(self, ctx: ForceContext) -> StepCall:
+        st = ctx.state
+        return StepCall(_gravity_step, (st.force, st.mass, st.frozen, float(self.g[0]),
+                                        float(self.g[1]), float(self.g[2])))
+
     def potential_energy(self, ctx: ForceContext) -> float:
         """``-sum m g . x`` over the mobile particles."""
         st = ctx.state
@@ -58,6 +70,12 @@ def _add_drag(force, v, zeta_of_type, ptype, frozen):
             force[i, 0] -= z * v[i, 0]
             force[i, 1] -= z * v[i, 1]
             force[i, 2] -= z * v[i, 2]
+
+
+@njit(cache=True)
+def _drag_step(a, time, dt):
+    """:meth:`Drag.compute` in the compiled step loop."""
+    _add_drag(a[0], a[1], a[2], a[3], a[4])
 
 
 class Drag(Force):
@@ -91,11 +109,19 @@ class Drag(Force):
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
+        _add_drag(st.force, st.v, self._zeta_of_types(st), st.type, st.frozen)
+
+    def step_call(self, ctx: ForceContext) -> StepCall:
+        st = ctx.state
+        return StepCall(_drag_step, (st.force, st.v, self._zeta_of_types(st), st.type,
+                                     st.frozen))
+
+    def _zeta_of_types(self, st) -> np.ndarray:
         if self._types_of is None or self._types_of[0] != st.generation:
             # the types present change only when particles are added, removed or re-sorted
             self._types_of = (st.generation, self._of_types(int(st.type.max()) + 1
                                                             if st.n else 1))
-        _add_drag(st.force, st.v, self._types_of[1], st.type, st.frozen)
+        return self._types_of[1]
 
     def potential_energy(self, ctx: ForceContext) -> float:
         """Drag only dissipates: nothing is stored."""

@@ -11,9 +11,23 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numba import njit
 
+from grainflow.engine.fast_path import StepCall
 from grainflow.engine.operations import ForceContext, Integrator
 from grainflow.kernels import integrate as ik
+
+
+@njit(cache=True)
+def _first_half_step(a, time, dt):
+    """:meth:`VelocityVerlet.pre_force` in the compiled step loop."""
+    ik.verlet_first_half(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], dt)
+
+
+@njit(cache=True)
+def _second_half_step(a, time, dt):
+    """:meth:`VelocityVerlet.post_force` in the compiled step loop."""
+    ik.verlet_second_half(a[0], a[1], a[2], a[3], a[4], a[5], a[6], dt)
 
 
 class VelocityVerlet(Integrator):
@@ -30,6 +44,13 @@ class VelocityVerlet(Integrator):
         st = ctx.state
         ik.verlet_second_half(st.v, st.omega, st.force, st.torque, st.mass, st.inertia,
                               st.frozen, ctx.dt)
+
+    def step_calls(self, ctx: ForceContext) -> tuple[StepCall, StepCall]:
+        st = ctx.state
+        return (StepCall(_first_half_step, (st.x, st.v, st.omega, st.force, st.torque, st.mass,
+                                            st.inertia, st.frozen)),
+                StepCall(_second_half_step, (st.v, st.omega, st.force, st.torque, st.mass,
+                                             st.inertia, st.frozen)))
 
 
 class AdamsBashforth2(Integrator):

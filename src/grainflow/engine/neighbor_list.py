@@ -69,9 +69,13 @@ class NeighborList:
         self._generation = -1
         self._capacity = 16
 
+    def is_current_for(self, state: ParticleState) -> bool:
+        """True if the list was built for this particle set (indices unchanged since)."""
+        return state.generation == self._generation and self._x_ref.shape[0] == state.n
+
     def needs_build(self, state: ParticleState, geom: ListGeometry) -> bool:
         """True if indices changed or some particle moved more than skin/2."""
-        if state.generation != self._generation or self._x_ref.shape[0] != state.n:
+        if not self.is_current_for(state):
             return True
         d2 = nk.max_displacement_sq(state.x, self._x_ref, geom.length, geom.periodic)
         return d2 > 0.25 * self.skin * self.skin
@@ -170,6 +174,11 @@ class NeighborList:
 
     def sort_due(self) -> bool:
         return self.sort_every > 0 and self.builds % self.sort_every == 0
+
+    @property
+    def reference_positions(self) -> np.ndarray:
+        """Positions at the last build (the displacement check's reference)."""
+        return self._x_ref
 
     @property
     def n_pairs(self) -> int:

@@ -33,6 +33,7 @@ from grainflow.frame import Contacts, Frame
 from grainflow.state import ParticleState
 
 if TYPE_CHECKING:
+    from grainflow.engine.fast_path import StepCall
     from grainflow.engine.neighbor_list import ListGeometry, NeighborList
 
 
@@ -208,6 +209,12 @@ class Force(ABC):
     def compute(self, ctx: ForceContext, update: bool) -> None:
         """Add this operation's forces at the current positions."""
 
+    def step_call(self, ctx: ForceContext) -> "StepCall | None":
+        """``compute(ctx, update=True)`` as a compiled call for runs of steps without Python
+        (:mod:`grainflow.engine.fast_path`), valid until the particle set or the neighbour
+        list changes; None (the default): the simulation steps in Python."""
+        return None
+
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
         """The times this operation's forces need resolved (for the time-step check)."""
         return []
@@ -256,6 +263,11 @@ class Integrator(ABC):
 
     def post_force(self, ctx: ForceContext) -> None:
         """After the forces of the step are known."""
+
+    def step_calls(self, ctx: ForceContext) -> "tuple[StepCall, StepCall] | None":
+        """``pre_force`` and ``post_force`` as compiled calls (see :meth:`Force.step_call`);
+        None (the default): the simulation steps in Python."""
+        return None
 
 
 class Updater(ABC):

@@ -18,11 +18,22 @@ from typing import Any, Iterable
 import numba
 import numpy as np
 
+from grainflow.engine.fast_path import StepCall
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import PAIR
 from grainflow.kernels import neighbors as nk
 from grainflow.kernels.pair_loop import ACTIVE, active_pairs, gather_pair_forces, pair_kernel
+from grainflow.kernels.specialize import specialize
 from grainflow.models.base import ContactLaw
+
+
+def _pair_step(a, time, dt):
+    """:meth:`PairInteraction.compute` (``update=True``) in the compiled step loop; the
+    pair kernel ``KERNEL`` is bound by :meth:`PairInteraction.step_call`."""
+    KERNEL(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
+           a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], dt,
+           True, a[22], a[23])
+    gather_pair_forces(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])
 
 
 class PairInteraction(Force):
@@ -115,6 +126,20 @@ class PairInteraction(Force):
     # ------------------------------------------------------------------ forces
     def compute(self, ctx: ForceContext, update: bool, first: bool = False) -> None:
         """Evaluate the law over the list; ``first``: set (not add to) force and torque."""
+        kernel, a = self._prepare(ctx, first)
+        kernel(*a[:22], ctx.dt, update, a[22], a[23])
+        gather_pair_forces(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])
+
+    def step_call(self, ctx: ForceContext, first: bool = False) -> StepCall:
+        """``compute(ctx, update=True, first)`` for the compiled step loop."""
+        kernel, args = self._prepare(ctx, first)
+        adapter = specialize(_pair_step, "pair_step_" + kernel.py_func.__name__,
+                             {"KERNEL": kernel})
+        return StepCall(adapter, args)
+
+    def _prepare(self, ctx: ForceContext, first: bool) -> tuple[Any, tuple]:
+        """The pair kernel for ``first`` and its arguments but ``dt`` and ``update`` (the
+        layout :func:`_pair_step` reads), with the per-list arrays brought up to date."""
         st = ctx.state
         nl = ctx.neighbors
         g = ctx.geometry
@@ -128,12 +153,11 @@ class PairInteraction(Force):
         kernel = self._kernels.get(key)
         if kernel is None:
             kernel = self._kernels[key] = pair_kernel(self.law.evaluator, *key)
-        kernel(self.law.table, self.law.reach(), self.use, st.x, st.v, st.omega, st.radius,
-               st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr, nl.pair_col, nl.col_span,
-               chunks, self.history, self.fc_pair, self.active, self.active_col, self.col_sum,
-               g.length, g.periodic, ctx.dt, update, st.force, st.torque)
-        gather_pair_forces(nl.col_ptr, nl.col_pair, nl.col_span, chunks, self.fc_pair,
-                           self.active_col, self.col_sum, st.radius, st.force, st.torque)
+        return kernel, (self.law.table, self.law.reach(), self.use, st.x, st.v, st.omega,
+                        st.radius, st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr,
+                        nl.pair_col, nl.col_span, chunks, self.history, self.fc_pair,
+                        self.active, self.active_col, self.col_sum, g.length, g.periodic,
+                        st.force, st.torque, nl.col_ptr, nl.col_pair)
 
     def contacts(self, ctx: ForceContext) -> list[ContactRows]:
         """Interacting pairs at the last evaluation: force on i, branch x_i - x_j."""

@@ -36,6 +36,7 @@ from typing import Any, Callable, Iterable
 import numba
 import numpy as np
 
+from grainflow.engine.fast_path import FastPath
 from grainflow.engine.integrators import VelocityVerlet
 from grainflow.engine.neighbor_list import ListGeometry, NeighborList
 from grainflow.engine.operations import (Clock, ContactRows, Force, ForceContext, Integrator,
@@ -95,6 +96,12 @@ ENERGY_MARGIN = 0.5
 #: time of a velocity (drag, kinetic friction; an explicit step is unstable past 2 tau).
 WARN_RATIO = {"oscillation": 15.0, "relaxation": 5.0}
 REFUSE_RATIO = {"oscillation": 4.0, "relaxation": 1.0}
+
+#: Runs shorter than this step in Python (compiling the fused step loop of a new set of
+#: operations the first time costs about a second; numba caches it on disk after that).
+FAST_PATH_MIN_STEPS = 1000
+#: Fewer quiet steps than this before the next thing due: a Python step is as quick.
+FAST_PATH_MIN_CHUNK = 4
 
 
 class Simulation:
@@ -169,6 +176,7 @@ class Simulation:
         #: ``(step, threads, seconds per particle-step)`` of every timed window of the
         #: ``"auto"`` thread choice, over all runs (:class:`~grainflow.engine.threads.ThreadTuner`).
         self.thread_log: list[tuple[int, int, float]] = []
+        self._fast_path = FastPath()
         if law is not None:
             self.add_interaction(law)
 
@@ -347,10 +355,19 @@ class Simulation:
         self.forces_current = True
 
     # ---------------------------------------------------------------- run
-    def run(self, steps: int, *, until: Callable[["Simulation"], bool] | None = None) -> None:
-        """Advance ``steps`` time steps (stop early when ``until(sim)`` becomes true)."""
+    def run(self, steps: int, *, until: Callable[["Simulation"], bool] | None = None,
+            until_every: int = 1) -> None:
+        """Advance ``steps`` time steps; stop early when ``until(sim)``, asked every
+        ``until_every`` steps, is true.
+
+        Runs of steps with nothing due in between go through one compiled loop
+        (:mod:`grainflow.engine.fast_path`) when every operation offers one and the run has
+        at least :data:`FAST_PATH_MIN_STEPS` steps; the result is bitwise the same.
+        """
         if steps < 0:
             raise ValueError("steps: must be >= 0")
+        if until_every < 1:
+            raise ValueError(f"until_every: {until_every!r} is not valid; expected >= 1")
         self.check_time_step()
         if not self.forces_current:
             self.compute_forces(update=False)
@@ -363,6 +380,9 @@ class Simulation:
         integ = self.integrator
         ctx = self.context
         clock = self.clock
+        end = clock.step + steps
+        fast = self._fast_path if steps >= FAST_PATH_MIN_STEPS else None
+        self._fast_path.forget()
         before = numba.get_num_threads()
         tuner = None
         if self._threads == "auto":
@@ -372,35 +392,76 @@ class Simulation:
             numba.set_num_threads(min(self._threads, numba.config.NUMBA_NUM_THREADS))
         t0 = _time.perf_counter()
         try:
-            for _ in range(steps):
-                integ.pre_force(ctx)
-                self.compute_forces(update=True)
-                integ.post_force(ctx)
-                clock.step += 1
-                clock.time += clock.dt
-                self.particle_steps += self.state.n
-                for u in self.updaters:
-                    if clock.step % u.every == 0:
-                        u.action(self._update_context)
-                if not self.forces_current:
-                    self.compute_forces(update=False)
-                if self.check_every and clock.step % self.check_every == 0:
-                    self.check_health()
+            while clock.step < end:
+                quiet = self._quiet_steps(end, tuner, until, until_every)
+                calls = None
+                if fast is not None and quiet >= FAST_PATH_MIN_CHUNK:
+                    self._assign_types()
+                    if self.neighbors.is_current_for(self.state):
+                        calls = fast.calls(self)
+                        if calls is None:
+                            fast = None  # some operation steps only in Python
+                if calls is not None:
+                    done, clock.time, pending = fast.run(self, quiet, calls)
+                    clock.step += done
+                    self.particle_steps += self.state.n * done
                 else:
-                    for o in self.observers:
-                        if o.checked and clock.step % o.every == 0:
-                            self.check_state()
-                            break
-                for o in self.observers:
-                    if clock.step % o.every == 0:
-                        o.action(self.observer_context)
-                if tuner is not None and clock.step >= tuner.next_step:
-                    tuner.tick(clock.step, self.particle_steps)
-                if until is not None and until(self):
+                    integ.pre_force(ctx)
+                    pending = True
+                if pending:  # the step's first half is done; the rest here
+                    self.compute_forces(update=True)
+                    integ.post_force(ctx)
+                    clock.step += 1
+                    clock.time += clock.dt
+                    self.particle_steps += self.state.n
+                self.forces_current = True
+                if self._after_step(tuner, until, until_every):
                     break
         finally:
             self.wall_seconds += _time.perf_counter() - t0
             numba.set_num_threads(before)
+
+    def _quiet_steps(self, end: int, tuner: ThreadTuner | None,
+                     until: Callable[["Simulation"], bool] | None, until_every: int) -> int:
+        """Steps from now to the next one after which something is due (an updater, an
+        observer, a health check, a thread-choice window, ``until``) or the run ends,
+        that step included."""
+        step = self.clock.step
+        due = end
+        for every in [s.every for s in self.updaters] + [o.every for o in self.observers]:
+            due = min(due, (step // every + 1) * every)
+        if self.check_every:
+            due = min(due, (step // self.check_every + 1) * self.check_every)
+        if tuner is not None:
+            due = min(due, max(tuner.next_step, step + 1))
+        if until is not None:
+            due = min(due, (step // until_every + 1) * until_every)
+        return due - step
+
+    def _after_step(self, tuner: ThreadTuner | None,
+                    until: Callable[["Simulation"], bool] | None, until_every: int) -> bool:
+        """What is due after the step just taken (updaters, checks, observers, the thread
+        choice); True when ``until`` says stop."""
+        clock = self.clock
+        for u in self.updaters:
+            if clock.step % u.every == 0:
+                u.action(self._update_context)
+                self._fast_path.forget()
+        if not self.forces_current:
+            self.compute_forces(update=False)
+        if self.check_every and clock.step % self.check_every == 0:
+            self.check_health()
+        else:
+            for o in self.observers:
+                if o.checked and clock.step % o.every == 0:
+                    self.check_state()
+                    break
+        for o in self.observers:
+            if clock.step % o.every == 0:
+                o.action(self.observer_context)
+        if tuner is not None and clock.step >= tuner.next_step:
+            tuner.tick(clock.step, self.particle_steps)
+        return until is not None and clock.step % until_every == 0 and until(self)
 
     # ------------------------------------------------------------ checks
     def time_scales(self) -> list[TimeScale]:

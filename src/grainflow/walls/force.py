@@ -48,6 +48,7 @@ from typing import Any, Iterable
 import numpy as np
 from numba import prange
 
+from grainflow.engine.fast_path import StepCall
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import WALL
 from grainflow.kernels.specialize import specialize
@@ -199,6 +200,14 @@ def _wall_overlaps(kinds, params, shift, x, radius, frozen, acts_on, ptype):
     return best
 
 
+def _wall_step(a, time, dt):
+    """:meth:`WallForce.compute` (``update=True``) in the compiled step loop: the walls at
+    the end of the step, ``time + dt``; the wall kernel ``KERNEL`` is bound by
+    :meth:`WallForce.step_call`."""
+    KERNEL(a[0], a[1], a[2], a[3], a[4], a[5] * (time + dt), a[5], a[6], a[7], a[8],  # noqa: F821
+           a[9], a[10], a[11], a[12], a[13], a[14], dt, True, a[15], a[16], False, a[17], a[18])
+
+
 class WallForce(Force):
     """Contacts between particles and a set of analytic walls, through one contact law.
 
@@ -322,21 +331,37 @@ class WallForce(Force):
     def _run(self, ctx: ForceContext, time: float, update: bool, force: np.ndarray,
              torque: np.ndarray, out: np.ndarray | None) -> None:
         st = ctx.state
+        visit = np.arange(st.n, dtype=np.int64) if out is not None else self._near(ctx)
+        a = self._arguments(ctx, force, torque, out, visit)
+        self._kernel(*a[:5], self._shift(time), *a[5:15], ctx.dt, update, a[15], a[16],
+                     out is not None, a[17], a[18])
+
+    def _arguments(self, ctx: ForceContext, force: np.ndarray, torque: np.ndarray,
+                   out: np.ndarray | None, visit: np.ndarray) -> tuple:
+        """The wall kernel's arguments but the shift, ``dt``, ``update`` and the record flag
+        (the layout :func:`_wall_step` reads)."""
+        st = ctx.state
         self._check_types(st)
         law = self.law
         if self._kernel is None:
             self._kernel = wall_kernel(law.evaluator)
-        visit = np.arange(st.n, dtype=np.int64) if out is not None else self._near(ctx)
-        self._kernel(
-            law.table, self.wall_type, self._acts_on, self.kinds, self.params,
-            self._shift(time), self.velocity, st.x, st.v, st.omega, st.radius, st.mass,
-            st.type, st.frozen, self._history(st), law.reach(), ctx.dt, update, force, torque,
-            out is not None, self._no_record if out is None else out, visit)
+        return (law.table, self.wall_type, self._acts_on, self.kinds, self.params,
+                self.velocity, st.x, st.v, st.omega, st.radius, st.mass, st.type, st.frozen,
+                self._history(st), law.reach(), force, torque,
+                self._no_record if out is None else out, visit)
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
         self._run(ctx, ctx.time + ctx.dt if update else ctx.time, update, st.force, st.torque,
                   None)
+
+    def step_call(self, ctx: ForceContext) -> StepCall:
+        """``compute(ctx, update=True)`` for the compiled step loop."""
+        st = ctx.state
+        a = self._arguments(ctx, st.force, st.torque, None, self._near(ctx))
+        adapter = specialize(_wall_step, "wall_step_" + self._kernel.py_func.__name__,
+                             {"KERNEL": self._kernel})
+        return StepCall(adapter, a)
 
     def contacts(self, ctx: ForceContext) -> list[ContactRows]:
         """Particle-wall contacts now: particle index, wall index, force on the particle,

@@ -1,0 +1,158 @@
+"""The compiled step loop (:mod:`grainflow.engine.fast_path`) gives bitwise the result of
+stepping in Python, for every kind of operation that offers one, and steps in Python when an
+operation does not.
+
+Each case runs the same set-up twice, once with the compiled loop switched off
+(``FAST_PATH_MIN_STEPS`` above the run's length) and once with it on from the first step,
+and compares positions, velocities, spins, forces, contact histories and the clock bit for
+bit; it also checks that the loop really took most of the steps and that the neighbour list
+was rebuilt in between (the loop hands those steps back to Python).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+import pytest
+
+from conftest import build_pile
+from grainflow.engine import simulation as simulation_module
+from grainflow.engine.forces import Gravity
+from grainflow.engine.integrators import AdamsBashforth2
+from grainflow.engine.simulation import Simulation
+from grainflow.frame import Box
+from grainflow.models.granular import GranularLaw
+from grainflow.models.soft import SoftLaw
+from grainflow.state import ParticleState
+from grainflow.walls.force import WallForce
+from grainflow.walls.geometry import Plane
+
+pytestmark = pytest.mark.usefixtures("numba_one_thread")
+
+
+def _chute() -> Simulation:
+    from grainflow.scenarios.chute import chute_cut
+
+    return chute_cut(0.25, 0.25)
+
+
+def _hopper(dim: int) -> Callable[[], Simulation]:
+    def build() -> Simulation:
+        from grainflow.scenarios.hopper import HopperSection, build_hopper, prepare
+
+        shape = dict(n=400, orifice_width=6.0) if dim == 2 else dict(n=200, width=8.0,
+                                                                      orifice_width=3.0)
+        section = HopperSection(**shape, E_sp=1000.0, E_w=1000.0,
+                                lam=math.inf if dim == 2 else 1.0)
+        sim = build_hopper(section, dim, seed=1)
+        prepare(sim)
+        sim.add_observer(lambda ctx: ctx.state.kinetic_energy(), 37)  # an event every 37
+        return sim
+    return build
+
+
+def _two_laws_and_a_moving_wall() -> Simulation:
+    """A granular law and a soft law on different type pairs, a static floor and a wall
+    pushing in from the side at constant speed (time-dependent wall position)."""
+    st = ParticleState(2, Box(np.array([-8.0, 0.0]), np.array([8.0, 30.0]), (False, False)))
+    rng = np.random.default_rng(4)
+    x = np.c_[rng.uniform(-5.5, 5.5, 200), rng.uniform(1, 28, 200)]
+    keep = [0]
+    for k in range(1, 200):
+        if np.min(np.linalg.norm(x[keep] - x[k], axis=1)) > 1.05:
+            keep.append(k)
+    x = x[keep]
+    st.add_particles(x, 0.5, density=1.0, type=(np.arange(len(x)) % 2).astype(np.int32))
+    granular = GranularLaw(3)
+    granular.set_all(kn=2e3, gamma_n=10.0, mu=0.4)
+    soft = SoftLaw(3)
+    soft.set_all(epsilon=200.0, mu_k=1.0)
+    sim = Simulation(st, 2e-4, granular)
+    sim.add_interaction(soft, types=[(1, 1)])
+    sim.add_force(WallForce([Plane((0, 0), (0, 1)), Plane((-6.0, 0), (1, 0), velocity=(2.0, 0))],
+                            granular, 2))
+    sim.add_force(Gravity([0.0, -10.0]))
+    return sim
+
+
+CASES = {
+    "chute cut (pairs, gravity, periodic)": (_chute, 2000),
+    "cohesive pile (history, cohesion, re-sorting)": (lambda: build_pile(), 2000),
+    "2D hopper (walls, drag, reinsertion, observer)": (_hopper(2), 3000),
+    "3D hopper (cylinder, cone, kinetic friction)": (_hopper(3), 1500),
+    "two laws and a moving wall": (_two_laws_and_a_moving_wall, 2000),
+}
+
+
+def _run(build: Callable[[], Simulation], steps: int, fast: bool, monkeypatch,
+         threads: int = 1) -> Simulation:
+    monkeypatch.setattr(simulation_module, "FAST_PATH_MIN_STEPS", 1 if fast else 10**12)
+    sim = build()
+    sim.threads = threads
+    sim.run(steps)
+    return sim
+
+
+def _by_id(sim: Simulation, a: np.ndarray) -> np.ndarray:
+    return a[np.argsort(sim.state.id)]
+
+
+def _assert_same(a: Simulation, b: Simulation) -> None:
+    assert a.step == b.step and a.time == b.time
+    assert np.array_equal(a.state.id, b.state.id)  # same re-sorting, same order
+    for name in ("x", "v", "omega", "force", "torque"):
+        assert np.array_equal(getattr(a.state, name), getattr(b.state, name)), name
+    for ia, ib in zip(a.interactions, b.interactions):
+        assert np.array_equal(ia.history, ib.history)
+    for name in a.state.arrays:
+        if name.startswith("wall_history_"):
+            assert np.array_equal(a.state.arrays[name], b.state.arrays[name]), name
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_compiled_steps_are_bitwise_python_steps(case: str, monkeypatch) -> None:
+    build, steps = CASES[case]
+    python = _run(build, steps, False, monkeypatch)
+    compiled = _run(build, steps, True, monkeypatch)
+    assert python._fast_path.steps_done == 0
+    assert compiled._fast_path.steps_done > steps // 2
+    assert compiled.rebuilds > 2  # steps that needed a new list went back to Python
+    _assert_same(python, compiled)
+    if case == "two laws and a moving wall":
+        from grainflow.frame import WALL
+
+        c = compiled.contacts()
+        assert np.sum((c.kind == WALL) & (c.j == 1)) >= 3  # the moving wall does push
+
+
+def test_compiled_steps_on_two_threads_are_bitwise_one_thread(monkeypatch) -> None:
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba was started with a single thread")
+    build, steps = CASES["cohesive pile (history, cohesion, re-sorting)"]
+    one = _run(build, steps, True, monkeypatch, threads=1)
+    two = _run(build, steps, True, monkeypatch, threads=2)
+    assert two._fast_path.steps_done > steps // 2
+    _assert_same(one, two)
+
+
+def test_an_operation_without_a_compiled_step_steps_in_python(monkeypatch) -> None:
+    """AB2 has no compiled halves: the run steps in Python, with the same result as ever."""
+    monkeypatch.setattr(simulation_module, "FAST_PATH_MIN_STEPS", 1)
+    sim = build_pile(integrator=AdamsBashforth2())
+    sim.run(300)
+    assert sim._fast_path.steps_done == 0 and sim.step == 300
+
+
+def test_until_is_asked_every_until_every_steps(monkeypatch) -> None:
+    monkeypatch.setattr(simulation_module, "FAST_PATH_MIN_STEPS", 1)
+    sim = build_pile()
+    asked = []
+    sim.run(1000, until=lambda s: asked.append(s.step) or s.step >= 420, until_every=20)
+    assert sim.step == 420 and asked == list(range(20, 421, 20))
+    assert sim._fast_path.steps_done > 300
+    with pytest.raises(ValueError, match="until_every"):
+        sim.run(10, until=lambda s: False, until_every=0)
