@@ -4,21 +4,28 @@ Forces are bitwise identical for any thread count (:mod:`grainflow.kernels.pair_
 the count may change at any step without changing a result: it is a matter of speed only.
 Which count is fastest depends on the system size *and on what else the machine runs*: on
 2 idle cores two threads give 1.8x on 32,000 grains and about 1x on 1,600, but with one
-CPU-bound process beside the run, every parallel region waits for a descheduled thread and
-two threads run 2x (32,000 grains) to 5x (1,600 grains) *slower* than one (BENCHMARKS.md,
+CPU-bound process beside the run every parallel region waits for a descheduled thread, and
+two threads run 2x (32,000 grains) to 30x (1,600 grains) *slower* than one (BENCHMARKS.md,
 "Shared machine"). No setting chosen before the run is right in both cases, so ``"auto"``
 measures:
 
 - it chooses between one thread and ``cap`` threads (numba's count when the run starts:
   ``NUMBA_NUM_THREADS`` or :func:`numba.set_num_threads`, so a cap of 1 turns it off);
 - it starts with one thread below :data:`SERIAL_BELOW` particles, with ``cap`` above;
-- it times the run in windows of about :attr:`ThreadTuner.window_s` seconds, and now and
-  then runs one window with the other count (a *probe*); it keeps whichever cost less per
-  particle-step than the window just before, by more than :attr:`ThreadTuner.margin`;
-- a probe that loses doubles the time to the next one (up to :attr:`ThreadTuner.max_wait_s`),
-  so a probe costs at most a few per cent of the run;
-- a window that costs more than :attr:`ThreadTuner.change` times the cost at the last decision
-  (another process started, say) probes at once.
+- it times the run in windows of about :attr:`ThreadTuner.window_s` seconds; after the
+  first full window, and then now and then, it tries the other count in three short
+  *trial* windows (:attr:`ThreadTuner.probe_s`, the same, then ten times that, sized at
+  the pace of the count in use and at least :attr:`ThreadTuner.probe_min_steps` steps,
+  because the other count may be tens of times slower); the other count is adopted only if
+  every trial window costs less per particle-step than the median of the last three full
+  windows, by more than :attr:`ThreadTuner.margin` (one short window can be lucky: on a
+  loaded machine the busy process is sometimes off the CPU for a few milliseconds);
+- a trial that loses doubles the time to the next one (from :attr:`ThreadTuner.base_wait_s`
+  up to :attr:`ThreadTuner.max_wait_s`), so trials cost a few per cent of the run at most;
+- when the median of the last three windows costs more than :attr:`ThreadTuner.change`
+  times the cost at the last decision (another process started, say), the next trial comes
+  within :attr:`ThreadTuner.change_wait_s` seconds (not at once: on a loaded machine short
+  windows are noisy, and every trial of a count that loses costs time).
 
 The simulation restores the thread count in force before the run when the run ends.
 """
@@ -61,10 +68,13 @@ class ThreadTuner:
 
     cap: int
     window_s: float = 0.1
-    first_wait_s: float = 0.5
+    probe_s: float = 0.002
+    probe_min_steps: int = 3
+    base_wait_s: float = 0.5
     max_wait_s: float = 64.0
     margin: float = 0.05
-    change: float = 1.5
+    change: float = 2.0
+    change_wait_s: float = 2.0
     clock: Callable[[], float] = time.perf_counter
     set_threads: Callable[[int], None] = numba.set_num_threads
     log: list[tuple[int, int, float]] = field(default_factory=list)
@@ -74,54 +84,82 @@ class ThreadTuner:
         """Set the starting count and open the first window at ``step``."""
         self.threads = 1 if n_particles < SERIAL_BELOW or self.cap == 1 else self.cap
         self.set_threads(self.threads)
-        self._incumbent_cost = float("inf")
-        self._settled_cost = float("inf")
-        self._probing = False
-        self._wait = self.first_wait_s
+        self._recent: list[float] = []  # costs of the last full windows of the count in use
+        self._settled_cost = float("inf")  # its typical cost when it was last chosen
+        self._pace = 0.0  # seconds per step of the count in use
+        self._trial: list[float] = []  # lengths (seconds) of the trial windows still to run
+        self._reference = float("inf")  # what a trial window must beat
+        self._other = self.threads
+        self._wait = 0.0  # the first probe comes after the first full window
         self._since_probe = 0.0
-        self._open(step, particle_steps, steps=1)
+        self._open(step, particle_steps, 1)
 
     def tick(self, step: int, particle_steps: int) -> None:
         """Close the window ending at ``step`` (``particle_steps``: the run's running total)
-        and decide the count for the next one."""
+        and decide the count and length of the next one."""
         now = self.clock()
         elapsed = now - self._t0
         done = particle_steps - self._ps0
         steps = max(step - self._step0, 1)
         cost = elapsed / done if done > 0 else float("inf")
         self.log.append((step, self.threads, cost))
-        # steps in the next window: about window_s at the pace just measured
-        per_step = elapsed / steps
-        next_steps = max(1, min(int(self.window_s / per_step) if per_step > 0 else 1000,
-                                10 * steps))
-        if self.cap == 1:
-            self._open(step, particle_steps, next_steps, now)
-            return
-        if self._probing:
-            self._probing = False
-            if cost < (1.0 - self.margin) * self._incumbent_cost:
-                self._settled_cost = cost  # the probe won: keep its count
-                self._wait = self.first_wait_s
-            else:
-                self._settled_cost = self._incumbent_cost
-                self.threads = self._other
-                self.set_threads(self.threads)
-                self._wait = min(2.0 * self._wait, self.max_wait_s)
+        if self._trial:  # a window of the other count: it must win every time
+            if cost < (1.0 - self.margin) * self._reference:
+                self._trial.pop(0)
+                if not self._trial:  # adopted
+                    self._settled_cost = cost
+                    self._recent = []
+                    self._pace = elapsed / steps
+                    self._wait = self.base_wait_s
+                    self._since_probe = 0.0
+                    self._open(step, particle_steps, self._steps_for(self.window_s), now)
+                    return
+                self._open(step, particle_steps, self._trial_steps(), now)
+                return
+            self._trial = []
+            self._switch(self._other)
+            self._settled_cost = self._reference  # the count in use is still the best
+            self._wait = min(max(2.0 * self._wait, self.base_wait_s), self.max_wait_s)
             self._since_probe = 0.0
-        else:
-            self._incumbent_cost = cost
+            self._open(step, particle_steps, self._steps_for(self.window_s), now)
+            return
+        self._pace = elapsed / steps
+        if elapsed >= 0.5 * self.window_s:  # a full window
+            self._recent = (self._recent + [cost])[-3:]
             self._since_probe += elapsed
-            if cost > self.change * self._settled_cost:
-                self._wait = self.first_wait_s
-                self._since_probe = self._wait
-            if self._since_probe >= self._wait:
-                self._probing = True
+            if self._settled_cost == float("inf"):
+                self._settled_cost = cost
+            if len(self._recent) == 3 and self._typical() > self.change * self._settled_cost:
+                self._wait = min(self._wait, self.change_wait_s)  # conditions changed
+            if self.cap > 1 and self._since_probe >= self._wait:
+                self._reference = self._typical()
+                self._trial = [self.probe_s, self.probe_s, 10.0 * self.probe_s]
                 self._other = self.threads
-                self.threads = 1 if self.threads != 1 else self.cap
-                self.set_threads(self.threads)
-        self._open(step, particle_steps, next_steps, now)
+                self._switch(1 if self.threads != 1 else self.cap)
+                self._open(step, particle_steps, self._trial_steps(), now)
+                return
+        self._open(step, particle_steps, min(self._steps_for(self.window_s), 10 * steps), now)
 
-    def _open(self, step: int, particle_steps: int, steps: int, now: float | None = None) -> None:
+    def _trial_steps(self) -> int:
+        """Steps of the next trial window: its length at the pace of the count being left
+        (the one known to be good), so that a much slower trial stays short."""
+        return max(self._steps_for(self._trial[0]), self.probe_min_steps)
+
+    def _typical(self) -> float:
+        """The median of the last full windows of the count in use."""
+        recent = sorted(self._recent)
+        return recent[len(recent) // 2] if recent else float("inf")
+
+    def _switch(self, threads: int) -> None:
+        self.threads = threads
+        self.set_threads(threads)
+
+    def _steps_for(self, seconds: float) -> int:
+        """Steps that take about ``seconds`` at the pace of the count in use."""
+        return max(1, int(seconds / self._pace)) if self._pace > 0 else 1
+
+    def _open(self, step: int, particle_steps: int, steps: int,
+              now: float | None = None) -> None:
         self._t0 = self.clock() if now is None else now
         self._step0 = step
         self._ps0 = particle_steps

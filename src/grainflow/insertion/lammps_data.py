@@ -1,4 +1,4 @@
-"""Reader for LAMMPS data files with ``atom_style sphere``.
+"""Reader and writer of LAMMPS data files with ``atom_style sphere``.
 
 Atoms line: ``id type diameter density x y z [ix iy iz]``; Velocities line:
 ``id vx vy vz wx wy wz``. The style is read from the comment of the ``Atoms`` line
@@ -9,6 +9,9 @@ they suggest. Atom ids must be unique. Mass is ``density * pi d^3 / 6`` (3D), as
 (a diameter of 0 would be a point particle and is refused). Only orthogonal boxes are read.
 Gzip-compressed files (``data.chute.gz``) are read as they are: compression is recognised by
 the file's first bytes, not its name.
+
+:func:`write_lammps_data` writes the same format with every number to full precision
+(``repr``), so LAMMPS and grainflow start a benchmark from bitwise the same state.
 
 Reading particles from a data file is a kind of fill, so the reader lives in
 :mod:`grainflow.insertion` (scenarios may use it); :mod:`grainflow.io.lammps_data`
@@ -127,6 +130,35 @@ def read_lammps_data(path: str | Path) -> LammpsData:
     return LammpsData(lo=lo, hi=hi, id=atoms[:, 0].astype(np.int64),
                       type=atoms[:, 1].astype(np.int32), diameter=diameter, density=atoms[:, 3],
                       x=atoms[:, 4:7], image=image, v=v, omega=omega)
+
+
+def write_lammps_data(path: str | Path, data: LammpsData, n_types: int | None = None,
+                      title: str = "written by grainflow") -> Path:
+    """Write ``data`` as an ``atom_style sphere`` data file (Atoms with image flags, and
+    Velocities); ``n_types``: the ``atom types`` count (default: the largest type).
+    :func:`read_lammps_data` reads it back exactly."""
+    path = Path(path)
+    n = int(data.id.shape[0])
+    types = int(data.type.max()) if n else 1
+    n_types = types if n_types is None else int(n_types)
+    if n_types < types:
+        raise ValueError(f"n_types: {n_types} is less than the largest atom type {types}")
+    lines = [f"LAMMPS data file {title}", "", f"{n} atoms", f"{n_types} atom types", ""]
+    for a, tag in enumerate(("xlo xhi", "ylo yhi", "zlo zhi")):
+        lines.append(f"{float(data.lo[a])!r} {float(data.hi[a])!r} {tag}")
+    lines += ["", "Atoms # sphere", ""]
+    for k in range(n):
+        x = data.x[k]
+        im = data.image[k]
+        lines.append(f"{int(data.id[k])} {int(data.type[k])} {float(data.diameter[k])!r} "
+                     f"{float(data.density[k])!r} {float(x[0])!r} {float(x[1])!r} "
+                     f"{float(x[2])!r} {int(im[0])} {int(im[1])} {int(im[2])}")
+    lines += ["", "Velocities", ""]
+    for k in range(n):
+        v, w = data.v[k], data.omega[k]
+        lines.append(f"{int(data.id[k])} " + " ".join(repr(float(c)) for c in (*v, *w)))
+    path.write_text("\n".join(lines) + "\n")
+    return path
 
 
 #: Columns of an Atoms line (without the 3 image flags) of LAMMPS's common atom styles.

@@ -91,9 +91,16 @@ def _chute_model(st: ParticleState, sort_every: int = 1) -> Simulation:
 
 def chute_cut(fraction_x: float = 0.5, fraction_y: float = 0.5,
               data_path: str | Path | None = None) -> Simulation:
-    """A smaller chute: the grains with ``x < fraction_x Lx`` and ``y < fraction_y Ly``, in a
-    box of that size (still periodic in x and y). ``chute_cut(0.5, 0.5)`` is about 8,000
-    grains; ``chute_cut(0.25, 0.125)`` about 1,000.
+    """A smaller chute, :func:`chute_cut_data`, ready to run. ``chute_cut(0.5, 0.5)`` is
+    8,000 grains; ``chute_cut(0.25, 0.16)`` about 1,000."""
+    return _chute_model(chute_state(chute_cut_data(fraction_x, fraction_y, data_path)))
+
+
+def chute_cut_data(fraction_x: float = 0.5, fraction_y: float = 0.5,
+                   data_path: str | Path | None = None) -> LammpsData:
+    """The grains of the chute with ``x < fraction_x Lx`` and ``y < fraction_y Ly``, in a box
+    of that size (still periodic in x and y), as a data file's contents (LAMMPS can run
+    the same cut: :func:`~grainflow.insertion.lammps_data.write_lammps_data`).
 
     Grains that would overlap by more than 1 % of a diameter across the new periodic seams
     are dropped (the later of each such pair), so the cut system starts without violent
@@ -122,9 +129,8 @@ def chute_cut(fraction_x: float = 0.5, fraction_y: float = 0.5,
         d[:2] -= keep_len * np.rint(d[:2] / keep_len)
         if np.linalg.norm(d) < radius[a] + radius[b] - 0.02 * radius.max():
             drop[b] = True
-    sub = LammpsData(lo=np.r_[0.0, 0.0, data.lo[2]], hi=np.r_[keep_len, data.hi[2]],
-                     id=data.id[idx][~drop], type=data.type[idx][~drop],
-                     diameter=data.diameter[idx][~drop], density=data.density[idx][~drop],
-                     x=x[~drop], image=np.zeros((int((~drop).sum()), 3), dtype=np.int64),
-                     v=data.v[idx][~drop], omega=data.omega[idx][~drop])
-    return _chute_model(chute_state(sub))
+    return LammpsData(lo=np.r_[0.0, 0.0, data.lo[2]], hi=np.r_[keep_len, data.hi[2]],
+                      id=data.id[idx][~drop], type=data.type[idx][~drop],
+                      diameter=data.diameter[idx][~drop], density=data.density[idx][~drop],
+                      x=x[~drop], image=np.zeros((int((~drop).sum()), 3), dtype=np.int64),
+                      v=data.v[idx][~drop], omega=data.omega[idx][~drop])
