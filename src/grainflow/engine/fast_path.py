@@ -27,7 +27,7 @@ import numba
 from numba import njit
 
 from grainflow.kernels.neighbors import max_displacement_sq
-from grainflow.kernels.specialize import specialize
+from grainflow.kernels.specialize import serial, specialize
 
 #: Force operations (pair interactions first) one compiled loop can hold.
 SLOTS = 6
@@ -45,18 +45,34 @@ def nothing(args, time, dt):
     """An empty slot."""
 
 
+def kernel_for(kernel: Any) -> Any:
+    """The version of a parallel kernel an adapter calls at the current thread count: the
+    kernel itself, or on one thread its serial twin (:func:`~grainflow.kernels.specialize.
+    serial`), which skips the cost of opening a parallel region."""
+    return serial(kernel) if numba.get_num_threads() == 1 else kernel
+
+
+def step_call(template: Any, name: str, args: tuple, **kernels: Any) -> StepCall:
+    """A :class:`StepCall` whose adapter is ``template`` with the names in ``kernels`` bound
+    to those kernels (:func:`kernel_for` each: serial twins on one thread)."""
+    bound = {k: kernel_for(v) for k, v in kernels.items()}
+    label = name + "_" + "_".join(getattr(v, "py_func", v).__name__ for v in bound.values())
+    return StepCall(specialize(template, label, bound), args)
+
+
 def _run_steps(k, time, dt, limit, x, x_ref, box_len, periodic, pre_args, post_args,
                a0, a1, a2, a3, a4, a5):
     """Up to ``k`` steps from clock time ``time``: ``(steps done, new time, pending)``.
 
     ``pending``: the last step's first half is done but some particle moved more than
     ``sqrt(limit)`` since the list was built; the caller finishes that step (not counted in
-    the steps done). Template: ``PRE``, ``POST`` and ``OP0`` ... ``OP5`` are bound by
+    the steps done). Template: ``PRE``, ``POST``, ``OP0`` ... ``OP5`` and ``DISPLACEMENT``
+    (:func:`~grainflow.kernels.neighbors.max_displacement_sq`) are bound by
     :class:`FastPath`.
     """
     for s in range(k):
         PRE(pre_args, time, dt)  # noqa: F821 (bound names)
-        if max_displacement_sq(x, x_ref, box_len, periodic) > limit:
+        if DISPLACEMENT(x, x_ref, box_len, periodic) > limit:  # noqa: F821
             return s, time, True
         OP0(a0, time, dt)  # noqa: F821
         OP1(a1, time, dt)  # noqa: F821
@@ -114,10 +130,11 @@ class FastPath:
         """Up to ``k`` steps (see :func:`_run_steps`); the caller advances the clock."""
         pre, post, ops = calls
         ops = ops + [StepCall(nothing, ())] * (SLOTS - len(ops))
-        key = (pre.adapter, post.adapter, *(op.adapter for op in ops))
+        displacement = kernel_for(max_displacement_sq)
+        key = (pre.adapter, post.adapter, displacement, *(op.adapter for op in ops))
         loop = self._loops.get(key)
         if loop is None:
-            bindings = {"PRE": pre.adapter, "POST": post.adapter}
+            bindings = {"PRE": pre.adapter, "POST": post.adapter, "DISPLACEMENT": displacement}
             bindings.update({f"OP{i}": op.adapter for i, op in enumerate(ops)})
             loop = self._loops[key] = specialize(_run_steps, "run_steps", bindings)
         nl = sim.neighbors

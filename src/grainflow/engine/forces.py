@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from grainflow.engine.fast_path import StepCall
+from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import Force, ForceContext, TimeScale
 
 
@@ -24,10 +24,9 @@ def _add_body_force(force, mass, frozen, g0, g1, g2):
             force[i, 2] += m * g2
 
 
-@njit(cache=True)
 def _gravity_step(a, time, dt):
-    """:meth:`Gravity.compute` in the compiled step loop."""
-    _add_body_force(a[0], a[1], a[2], a[3], a[4], a[5])
+    """:meth:`Gravity.compute` in the compiled step loop (``ADD`` bound)."""
+    ADD(a[0], a[1], a[2], a[3], a[4], a[5])  # noqa: F821
 
 
 class Gravity(Force):
@@ -52,8 +51,9 @@ class Gravity(Force):
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         st = ctx.state
-        return StepCall(_gravity_step, (st.force, st.mass, st.frozen, float(self.g[0]),
-                                        float(self.g[1]), float(self.g[2])))
+        return step_call(_gravity_step, "gravity", (st.force, st.mass, st.frozen,
+                         float(self.g[0]), float(self.g[1]), float(self.g[2])),
+                         ADD=_add_body_force)
 
     def potential_energy(self, ctx: ForceContext) -> float:
         """``-sum m g . x`` over the mobile particles."""
@@ -72,10 +72,9 @@ def _add_drag(force, v, zeta_of_type, ptype, frozen):
             force[i, 2] -= z * v[i, 2]
 
 
-@njit(cache=True)
 def _drag_step(a, time, dt):
-    """:meth:`Drag.compute` in the compiled step loop."""
-    _add_drag(a[0], a[1], a[2], a[3], a[4])
+    """:meth:`Drag.compute` in the compiled step loop (``ADD`` bound)."""
+    ADD(a[0], a[1], a[2], a[3], a[4])  # noqa: F821
 
 
 class Drag(Force):
@@ -113,8 +112,8 @@ class Drag(Force):
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         st = ctx.state
-        return StepCall(_drag_step, (st.force, st.v, self._zeta_of_types(st), st.type,
-                                     st.frozen))
+        return step_call(_drag_step, "drag", (st.force, st.v, self._zeta_of_types(st),
+                         st.type, st.frozen), ADD=_add_drag)
 
     def _zeta_of_types(self, st) -> np.ndarray:
         if self._types_of is None or self._types_of[0] != st.generation:

@@ -11,23 +11,20 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numba import njit
 
-from grainflow.engine.fast_path import StepCall
+from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import ForceContext, Integrator
 from grainflow.kernels import integrate as ik
 
 
-@njit(cache=True)
 def _first_half_step(a, time, dt):
-    """:meth:`VelocityVerlet.pre_force` in the compiled step loop."""
-    ik.verlet_first_half(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], dt)
+    """:meth:`VelocityVerlet.pre_force` in the compiled step loop (``FIRST_HALF`` bound)."""
+    FIRST_HALF(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], dt)  # noqa: F821
 
 
-@njit(cache=True)
 def _second_half_step(a, time, dt):
-    """:meth:`VelocityVerlet.post_force` in the compiled step loop."""
-    ik.verlet_second_half(a[0], a[1], a[2], a[3], a[4], a[5], a[6], dt)
+    """:meth:`VelocityVerlet.post_force` in the compiled step loop (``SECOND_HALF`` bound)."""
+    SECOND_HALF(a[0], a[1], a[2], a[3], a[4], a[5], a[6], dt)  # noqa: F821
 
 
 class VelocityVerlet(Integrator):
@@ -47,10 +44,12 @@ class VelocityVerlet(Integrator):
 
     def step_calls(self, ctx: ForceContext) -> tuple[StepCall, StepCall]:
         st = ctx.state
-        return (StepCall(_first_half_step, (st.x, st.v, st.omega, st.force, st.torque, st.mass,
-                                            st.inertia, st.frozen)),
-                StepCall(_second_half_step, (st.v, st.omega, st.force, st.torque, st.mass,
-                                             st.inertia, st.frozen)))
+        return (step_call(_first_half_step, "verlet_first", (st.x, st.v, st.omega, st.force,
+                          st.torque, st.mass, st.inertia, st.frozen),
+                          FIRST_HALF=ik.verlet_first_half),
+                step_call(_second_half_step, "verlet_second", (st.v, st.omega, st.force,
+                          st.torque, st.mass, st.inertia, st.frozen),
+                          SECOND_HALF=ik.verlet_second_half))
 
 
 class AdamsBashforth2(Integrator):

@@ -18,22 +18,22 @@ from typing import Any, Iterable
 import numba
 import numpy as np
 
-from grainflow.engine.fast_path import StepCall
+from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import PAIR
 from grainflow.kernels import neighbors as nk
 from grainflow.kernels.pair_loop import ACTIVE, active_pairs, gather_pair_forces, pair_kernel
-from grainflow.kernels.specialize import specialize
 from grainflow.models.base import ContactLaw
 
 
 def _pair_step(a, time, dt):
     """:meth:`PairInteraction.compute` (``update=True``) in the compiled step loop; the
-    pair kernel ``KERNEL`` is bound by :meth:`PairInteraction.step_call`."""
+    pair kernel ``KERNEL`` and the gather ``GATHER`` are bound by
+    :meth:`PairInteraction.step_call`."""
     KERNEL(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
            a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], dt,
            True, a[22], a[23])
-    gather_pair_forces(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])
+    GATHER(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])  # noqa: F821
 
 
 class PairInteraction(Force):
@@ -133,9 +133,8 @@ class PairInteraction(Force):
     def step_call(self, ctx: ForceContext, first: bool = False) -> StepCall:
         """``compute(ctx, update=True, first)`` for the compiled step loop."""
         kernel, args = self._prepare(ctx, first)
-        adapter = specialize(_pair_step, "pair_step_" + kernel.py_func.__name__,
-                             {"KERNEL": kernel})
-        return StepCall(adapter, args)
+        return step_call(_pair_step, "pair_step", args, KERNEL=kernel,
+                         GATHER=gather_pair_forces)
 
     def _prepare(self, ctx: ForceContext, first: bool) -> tuple[Any, tuple]:
         """The pair kernel for ``first`` and its arguments but ``dt`` and ``update`` (the

@@ -48,7 +48,7 @@ from typing import Any, Iterable
 import numpy as np
 from numba import prange
 
-from grainflow.engine.fast_path import StepCall
+from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import WALL
 from grainflow.kernels.specialize import specialize
@@ -359,9 +359,7 @@ class WallForce(Force):
         """``compute(ctx, update=True)`` for the compiled step loop."""
         st = ctx.state
         a = self._arguments(ctx, st.force, st.torque, None, self._near(ctx))
-        adapter = specialize(_wall_step, "wall_step_" + self._kernel.py_func.__name__,
-                             {"KERNEL": self._kernel})
-        return StepCall(adapter, a)
+        return step_call(_wall_step, "wall_step", a, KERNEL=self._kernel)
 
     def contacts(self, ctx: ForceContext) -> list[ContactRows]:
         """Particle-wall contacts now: particle index, wall index, force on the particle,
