@@ -45,19 +45,30 @@ def nothing(args, time, dt):
     """An empty slot."""
 
 
+#: Whether the step calls being collected are for one thread (set by :class:`FastPath`
+#: around the collection, read by :func:`kernel_for`: numba.get_num_threads costs microseconds).
+_serial = {"now": False}
+_ADAPTERS: dict[tuple, Any] = {}
+
+
 def kernel_for(kernel: Any) -> Any:
-    """The version of a parallel kernel an adapter calls at the current thread count: the
-    kernel itself, or on one thread its serial twin (:func:`~grainflow.kernels.specialize.
-    serial`), which skips the cost of opening a parallel region."""
-    return serial(kernel) if numba.get_num_threads() == 1 else kernel
+    """The version of a parallel kernel an adapter calls at the thread count the step calls
+    are collected for: the kernel itself, or on one thread its serial twin
+    (:func:`~grainflow.kernels.specialize.serial`), which skips opening a parallel region."""
+    return serial(kernel) if _serial["now"] else kernel
 
 
 def step_call(template: Any, name: str, args: tuple, **kernels: Any) -> StepCall:
     """A :class:`StepCall` whose adapter is ``template`` with the names in ``kernels`` bound
     to those kernels (:func:`kernel_for` each: serial twins on one thread)."""
-    bound = {k: kernel_for(v) for k, v in kernels.items()}
-    label = name + "_" + "_".join(getattr(v, "py_func", v).__name__ for v in bound.values())
-    return StepCall(specialize(template, label, bound), args)
+    key = (template, _serial["now"], *sorted((k, id(v)) for k, v in kernels.items()))
+    adapter = _ADAPTERS.get(key)
+    if adapter is None:
+        bound = {k: kernel_for(v) for k, v in kernels.items()}
+        label = name + "_" + "_".join(getattr(v, "py_func", v).__name__
+                                      for v in bound.values())
+        adapter = _ADAPTERS[key] = specialize(template, label, bound)
+    return StepCall(adapter, args)
 
 
 def _run_steps(k, time, dt, limit, x, x_ref, box_len, periodic, pre_args, post_args,
@@ -104,8 +115,10 @@ class FastPath:
         """The integrator's two halves and every force's step call, or None when some
         operation has none (then the simulation steps in Python). Kept while the list,
         the particle set and the thread count stay (and until :meth:`forget`)."""
-        key = (sim.neighbors.builds, sim.state.generation, sim.state.n, numba.get_num_threads())
+        threads = numba.get_num_threads()
+        key = (sim.neighbors.builds, sim.state.generation, sim.state.n, threads)
         if key != self._calls_key:
+            _serial["now"] = threads == 1
             self._calls = self._collect(sim)
             self._calls_key = key
         return self._calls
@@ -130,7 +143,8 @@ class FastPath:
         """Up to ``k`` steps (see :func:`_run_steps`); the caller advances the clock."""
         pre, post, ops = calls
         ops = ops + [StepCall(nothing, ())] * (SLOTS - len(ops))
-        displacement = kernel_for(max_displacement_sq)
+        displacement = max_displacement_sq if self._calls_key[3] > 1 else serial(
+            max_displacement_sq)
         key = (pre.adapter, post.adapter, displacement, *(op.adapter for op in ops))
         loop = self._loops.get(key)
         if loop is None:

@@ -15,6 +15,11 @@ Order of work within one step of :meth:`Simulation.run` (the same for every set-
        the other steps where an output is due, the cheap compiled part of it
        (:meth:`Simulation.check_state`), so nothing broken is ever written
     8. observers due this step     (outputs, analyses; read-only access to state/contacts)
+    9. the ``"auto"`` thread choice, when its window ends (:mod:`grainflow.engine.threads`)
+
+Steps 1-5 of the steps where nothing of 6-9 is due run in one compiled loop when every
+operation offers a compiled step call (:mod:`grainflow.engine.fast_path`); a step whose
+list must be rebuilt is finished here. The order of work and the result are the same.
 
 Before the first step forces are evaluated once without advancing contact histories
 (LAMMPS's set-up call), unless they are already current (e.g. after a checkpoint load).
