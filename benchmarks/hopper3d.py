@@ -21,7 +21,8 @@ What runs:
    inside the hopper (lattice spacing 1.11, jittered), the orifice closed by a plane at z = 0,
    settled under gravity until the kinetic energy is below 1e-4 per grain (``m g d`` units);
    written as a LAMMPS ``atom_style sphere`` data file (positions, diameters, densities,
-   velocities and spins to 17 significant digits) that *both* codes read back.
+   velocities and spins to full precision, by grainflow's ``write_lammps_data``) that *both*
+   codes read back.
 2. The orifice opened: for each worker count, grainflow (a fresh process, ``NUMBA_NUM_THREADS``
    and ``NUMBA_THREADING_LAYER=omp`` set before numba starts, the simulation's ``threads``
    fixed to that count rather than ``"auto"``) and LAMMPS (``lmp``, 1 rank, and
@@ -31,9 +32,10 @@ What runs:
    particle count falls as grains leave, so both count particle-steps as the sum of the
    particle count over the steps (grainflow's own counter; LAMMPS: from its thermo rows,
    every 100 steps).
-3. A physics check: the number of grains discharged and the translational kinetic energy
-   after the same 50 + ``--steps`` steps in both codes (chaotic flow: they agree statistically,
-   within ~10-20 %, not bitwise), and grainflow's particle-wall contact count at the start.
+3. A physics check: the number of grains discharged (centre below the orifice plane, deleted
+   or not yet) and the translational kinetic energy after the same 50 + ``--steps`` steps in
+   both codes (chaotic flow: they agree statistically, within ~10-20 %, not bitwise), and
+   grainflow's particle-wall contact count at the start.
 
 The same work in both codes:
 
@@ -56,16 +58,18 @@ The same work in both codes:
   the same work.
 * Deletion. A grain is deleted once it has fallen ``sink`` = 3 diameters below the orifice:
   LAMMPS's box ends there (``boundary f``, ``thermo_modify lost ignore``; a grain outside the
-  box is dropped at the next re-neighbouring, which the falling grains cause every ~20 steps),
-  grainflow's :class:`~grainflow.insertion.DeleteRegion` runs every 20 steps on the same plane.
-  The falling stream below the orifice is a few tens of grains out of 20,000 either way.
+  box is dropped at the next re-neighbouring, which the falling grains cause every ~15
+  steps), grainflow's :class:`~grainflow.insertion.DeleteRegion` runs every 100 steps on the
+  same plane. The falling stream below the orifice is a few tens of grains out of 20,000
+  either way, free-falling, without contacts. Why not every 15 steps: each deletion costs
+  grainflow a list rebuild and an extra read-only force evaluation (its engine re-evaluates
+  the forces after the particle set changes; ~20 ms at 20,000 grains, some 5 steps), where
+  LAMMPS drops lost grains for free while re-neighbouring; every 20 steps made grainflow's
+  run ~7 % slower than every 200 (67 against 13 deletions in 4050 steps).
 * Contact histories are not in a data file: both codes start the run with none (the same).
-* What is not the same work: LAMMPS's two wall fixes test every grain at every step (region
-  match and surface distance), grainflow's wall loop visits only the grains within reach +
-  skin of a wall (listed at each neighbour-list build); a deletion costs grainflow one extra
-  read-only force evaluation (its engine re-evaluates the forces after the particle set
-  changes), LAMMPS nothing (it drops lost grains while re-neighbouring). Both are the codes'
-  own ways, measured as they are.
+* What is not the same work, by design of the codes: LAMMPS's two wall fixes test every grain
+  at every step (region match and surface distance), grainflow's wall loop visits only the
+  grains within reach + skin of a wall (listed at each neighbour-list build).
 * The flow starts from rest at step 0 (the orifice opens): the first grains leave after
   ~2.5 time units; with the default 4000 + 50 steps (4.05 time units) about 85 have left.
 * LAMMPS is given its usual help: ``balance 1.1 shift z`` once after reading the data (the two
@@ -273,30 +277,27 @@ def box_of(h: Hopper, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def write_lammps_data(path: str | Path, lo, hi, x, diameter, density, v=None, omega=None,
                       ids=None, types=None, title: str = "grainflow hopper3d") -> Path:
     """A LAMMPS ``atom_style sphere`` data file (``Atoms # sphere``: id type diameter density
-    x y z; ``Velocities``: id vx vy vz wx wy wz), numbers to 17 significant digits so both
-    codes read back the same doubles."""
+    x y z ix iy iz; ``Velocities``: id vx vy vz wx wy wz) through grainflow's own writer
+    (:func:`grainflow.insertion.lammps_data.write_lammps_data`, every number to full
+    precision, so both codes read back the same doubles); written under a temporary name and
+    renamed, so an interrupted build never leaves a half-written cache file."""
+    from grainflow.insertion.lammps_data import LammpsData
+    from grainflow.insertion.lammps_data import write_lammps_data as write
+
     path = Path(path)
     x = np.asarray(x, dtype=float)
     n = x.shape[0]
-    ids = np.arange(1, n + 1) if ids is None else np.asarray(ids, dtype=np.int64)
-    types = np.ones(n, dtype=np.int64) if types is None else np.asarray(types, dtype=np.int64)
-    diameter = np.broadcast_to(np.asarray(diameter, dtype=float), (n,))
-    density = np.broadcast_to(np.asarray(density, dtype=float), (n,))
-    v = np.zeros((n, 3)) if v is None else np.asarray(v, dtype=float)
-    omega = np.zeros((n, 3)) if omega is None else np.asarray(omega, dtype=float)
-    ntypes = int(types.max()) if n else 1
-    g = "{:.17g}".format
-    lines = [f"LAMMPS data file: {title}", "", f"{n} atoms", f"{ntypes} atom types", ""]
-    for a, name in enumerate("xyz"):
-        lines.append(f"{g(lo[a])} {g(hi[a])} {name}lo {name}hi")
-    lines += ["", "Atoms # sphere", ""]
-    lines += [f"{i} {t} {g(d)} {g(r)} {g(p[0])} {g(p[1])} {g(p[2])}"
-              for i, t, d, r, p in zip(ids, types, diameter, density, x)]
-    lines += ["", "Velocities", ""]
-    lines += [f"{i} {g(a[0])} {g(a[1])} {g(a[2])} {g(w[0])} {g(w[1])} {g(w[2])}"
-              for i, a, w in zip(ids, v, omega)]
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text("\n".join(lines) + "\n")
+    data = LammpsData(
+        lo=np.asarray(lo, dtype=float), hi=np.asarray(hi, dtype=float),
+        id=np.arange(1, n + 1) if ids is None else np.asarray(ids, dtype=np.int64),
+        type=np.ones(n, dtype=np.int64) if types is None else np.asarray(types, dtype=np.int64),
+        diameter=np.broadcast_to(np.asarray(diameter, dtype=float), (n,)),
+        density=np.broadcast_to(np.asarray(density, dtype=float), (n,)), x=x,
+        image=np.zeros((n, 3), dtype=np.int64),
+        v=np.zeros((n, 3)) if v is None else np.asarray(v, dtype=float),
+        omega=np.zeros((n, 3)) if omega is None else np.asarray(omega, dtype=float))
+    tmp = path.with_name(path.name + ".tmp")
+    write(tmp, data, title=title)
     tmp.replace(path)
     return path
 
@@ -323,7 +324,7 @@ def start_state(h: Hopper, workdir: str | Path | None = None, log=print) -> Path
 
 
 def hopper_simulation(h: Hopper, data_path: str | Path, threads: int | str = "auto",
-                      sink_every: int = 20):
+                      sink_every: int = 100):
     """The open hopper read from ``data_path``: grainflow's side of the benchmark
     (``threads``: the simulation's thread count; the benchmark fixes it to the count it
     measures, not ``"auto"``)."""
@@ -345,25 +346,17 @@ def hopper_simulation(h: Hopper, data_path: str | Path, threads: int | str = "au
 
 
 def warm_up(sim, steps: int) -> None:
-    """Run ``steps`` warm-up steps through both code paths the measured run takes.
-
-    grainflow sends runs of at least ``FAST_PATH_MIN_STEPS`` (1000) steps through its
-    compiled step loop (steps that need a new neighbour list finish in Python), compiled or
-    loaded from numba's cache at first use. The first half of the warm-up steps in Python,
-    the second half with the threshold lowered goes through the compiled loop, so every
-    kernel is ready before the clock starts (the results are bitwise the same either way)."""
-    import grainflow.engine.simulation as engine
-
-    threshold = getattr(engine, "FAST_PATH_MIN_STEPS", None)
-    half = steps // 2 if threshold is not None else steps
-    sim.run(half)
-    if threshold is None:  # an engine without the compiled step loop
-        return
-    engine.FAST_PATH_MIN_STEPS = 1
+    """Run ``steps`` warm-up steps through both code paths the measured run takes: the
+    compiled step loop (which runs of at least ``sim.fast_path_min_steps`` steps use;
+    compiled or loaded from numba's cache at first use) and the Python path of the steps
+    that need a new neighbour list, so every kernel is ready before the clock starts (the
+    results are bitwise the same either way)."""
+    default = sim.fast_path_min_steps
+    sim.fast_path_min_steps = 0
     try:
-        sim.run(steps - half)
+        sim.run(steps)
     finally:
-        engine.FAST_PATH_MIN_STEPS = threshold
+        sim.fast_path_min_steps = default
 
 
 WORKER = r"""
@@ -390,14 +383,15 @@ print(json.dumps({"n0": n0, "n": sim.state.n, "steps": steps, "wall": wall,
                   "builds": sim.neighbors.builds - b0,
                   "wall_contacts_start": wall_contacts, "pair_contacts_start": pair_contacts,
                   "wall_visited_end": len(getattr(wf, "_visit", ())),
-                  "discharged": n0 - sim.state.n, "ke": sim.state.kinetic_energy()}))
+                  "deleted": n0 - sim.state.n,
+                  "discharged": n0 - int((sim.state.x[:, 2] >= h.z_orifice).sum()),
+                  "ke": sim.state.kinetic_energy()}))
 """
 
 PROFILE = r"""
 import cProfile, json, pstats, sys
 sys.path.insert(0, sys.argv[1])
 from hopper3d import Hopper, hopper_simulation, warm_up
-import grainflow.engine.simulation as engine
 h = Hopper(**json.loads(sys.argv[2]))
 steps = int(sys.argv[4])
 out = {}
@@ -406,16 +400,9 @@ out = {}
 # Python call and shows up in the profile (the same kernels, in the same order; only the
 # per-call dispatch differs)
 for mode in ("default", "python_path"):
-    if not hasattr(engine, "FAST_PATH_MIN_STEPS"):
-        if mode == "python_path":
-            continue
-        threshold = None
-    else:
-        threshold = 1 if mode == "default" else 1 << 62
     sim = hopper_simulation(h, sys.argv[3], threads=1)
     warm_up(sim, 50)
-    if threshold is not None:
-        engine.FAST_PATH_MIN_STEPS = threshold
+    sim.fast_path_min_steps = 0 if mode == "default" else 1 << 62
     pr = cProfile.Profile()
     pr.enable()
     sim.run(steps)
@@ -535,7 +522,8 @@ def run_lammps(h: Hopper, data: Path, steps: int, ranks: int, warmup: int = 50,
         r"^(Pair|Neigh|Comm|Output|Modify|Other)\s*\|.*?\|\s*([\d.]+)\s*$", tail, flags=re.M)}
     return {"wall": wall, "steps": nsteps, "n0": n0, "n": natoms,
             "particle_steps": particle_steps, "psps": particle_steps / wall,
-            "discharged": n0 - natoms, "ke": last[-1]["KinEng"], "sections": sections}
+            "deleted": n0 - natoms, "discharged": n0 - int(last[-1]["c_inhopper"]),
+            "ke": last[-1]["KinEng"], "sections": sections}
 
 
 def machine_load() -> float | None:
@@ -572,8 +560,8 @@ def main(argv: list[str] | None = None) -> dict:
     os.environ.setdefault("NUMBA_THREADING_LAYER", LAYER)  # before numba starts (settling)
     load = machine_load()
     if load is not None and load > 0.5:
-        print(f"note: load average {load:.2f} > 0.5: another process is running; the figures "
-              "will be low and noisy")
+        print(f"note: load average {load:.2f} > 0.5 (something ran in the last minute or runs "
+              "now): the figures may be low and noisy")
     h = dataclasses.replace(Hopper(), n=args.n)
     data = start_state(h, args.workdir)
     results: dict = {"benchmark": "hopper3d", "date": time.strftime("%Y-%m-%d"),
@@ -595,10 +583,12 @@ def main(argv: list[str] | None = None) -> dict:
     results["grainflow_pair_contacts_start"] = g1["pair_contacts_start"]
     results["grainflow_list_builds"] = g1["builds"]
     results["grainflow_wall_visited_end"] = g1["wall_visited_end"]
-    results["physics"] = {f"grainflow_{w}": {"discharged": r["discharged"], "ke": r["ke"]}
+    results["physics"] = {f"grainflow_{w}": {"discharged": r["discharged"],
+                                              "deleted": r["deleted"], "ke": r["ke"]}
                           for w, r in gf.items()}
     for w, r in lm.items():
-        results["physics"][f"lammps_{w}"] = {"discharged": r["discharged"], "ke": r["ke"]}
+        results["physics"][f"lammps_{w}"] = {"discharged": r["discharged"],
+                                             "deleted": r["deleted"], "ke": r["ke"]}
     if lm:
         ref = lm[workers[0]]
         results["physics"]["discharged_rel_diff"] = (
@@ -625,7 +615,8 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"physics after {50 + args.steps} steps (orifice opened at step 0):")
     for name, p in results["physics"].items():
         if isinstance(p, dict):
-            print(f"  {name:<14} discharged {p['discharged']:>6d}   kinetic energy {p['ke']:.5g}")
+            print(f"  {name:<14} discharged {p['discharged']:>6d} (deleted {p['deleted']:>5d})"
+                  f"   kinetic energy {p['ke']:.5g}")
     if lm:
         ph = results["physics"]
         print(f"  grainflow - LAMMPS: discharged {100 * ph['discharged_rel_diff']:+.1f} %, "

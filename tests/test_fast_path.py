@@ -3,7 +3,7 @@ stepping in Python, for every kind of operation that offers one, and steps in Py
 operation does not.
 
 Each case runs the same set-up twice, once with the compiled loop switched off
-(``FAST_PATH_MIN_STEPS`` above the run's length) and once with it on from the first step,
+(``fast_path_min_steps`` above the run's length) and once with it on from the first step,
 and compares positions, velocities, spins, forces, contact histories and the clock bit for
 bit; it also checks that the loop really took most of the steps and that the neighbour list
 was rebuilt in between (the loop hands those steps back to Python).
@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 
 from conftest import build_pile
-from grainflow.engine import simulation as simulation_module
 from grainflow.engine.forces import Gravity
 from grainflow.engine.integrators import AdamsBashforth2
 from grainflow.engine.simulation import Simulation
@@ -86,10 +85,10 @@ CASES = {
 }
 
 
-def _run(build: Callable[[], Simulation], steps: int, fast: bool, monkeypatch,
-         threads: int = 1) -> Simulation:
-    monkeypatch.setattr(simulation_module, "FAST_PATH_MIN_STEPS", 1 if fast else 10**12)
+def _run(build: Callable[[], Simulation], steps: int, fast: bool, threads: int = 1
+         ) -> Simulation:
     sim = build()
+    sim.fast_path_min_steps = 0 if fast else 10**12
     sim.threads = threads
     sim.run(steps)
     return sim
@@ -112,10 +111,10 @@ def _assert_same(a: Simulation, b: Simulation) -> None:
 
 
 @pytest.mark.parametrize("case", list(CASES))
-def test_compiled_steps_are_bitwise_python_steps(case: str, monkeypatch) -> None:
+def test_compiled_steps_are_bitwise_python_steps(case: str) -> None:
     build, steps = CASES[case]
-    python = _run(build, steps, False, monkeypatch)
-    compiled = _run(build, steps, True, monkeypatch)
+    python = _run(build, steps, False)
+    compiled = _run(build, steps, True)
     assert python._fast_path.steps_done == 0
     assert compiled._fast_path.steps_done > steps // 2
     assert compiled.rebuilds > 2  # steps that needed a new list went back to Python
@@ -127,29 +126,29 @@ def test_compiled_steps_are_bitwise_python_steps(case: str, monkeypatch) -> None
         assert np.sum((c.kind == WALL) & (c.j == 1)) >= 3  # the moving wall does push
 
 
-def test_compiled_steps_on_two_threads_are_bitwise_one_thread(monkeypatch) -> None:
+def test_compiled_steps_on_two_threads_are_bitwise_one_thread() -> None:
     import numba
 
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("numba was started with a single thread")
     build, steps = CASES["cohesive pile (history, cohesion, re-sorting)"]
-    one = _run(build, steps, True, monkeypatch, threads=1)
-    two = _run(build, steps, True, monkeypatch, threads=2)
+    one = _run(build, steps, True, threads=1)
+    two = _run(build, steps, True, threads=2)
     assert two._fast_path.steps_done > steps // 2
     _assert_same(one, two)
 
 
-def test_an_operation_without_a_compiled_step_steps_in_python(monkeypatch) -> None:
+def test_an_operation_without_a_compiled_step_steps_in_python() -> None:
     """AB2 has no compiled halves: the run steps in Python, with the same result as ever."""
-    monkeypatch.setattr(simulation_module, "FAST_PATH_MIN_STEPS", 1)
     sim = build_pile(integrator=AdamsBashforth2())
+    sim.fast_path_min_steps = 0
     sim.run(300)
     assert sim._fast_path.steps_done == 0 and sim.step == 300
 
 
-def test_until_is_asked_every_until_every_steps(monkeypatch) -> None:
-    monkeypatch.setattr(simulation_module, "FAST_PATH_MIN_STEPS", 1)
+def test_until_is_asked_every_until_every_steps() -> None:
     sim = build_pile()
+    sim.fast_path_min_steps = 0
     asked = []
     sim.run(1000, until=lambda s: asked.append(s.step) or s.step >= 420, until_every=20)
     assert sim.step == 420 and asked == list(range(20, 421, 20))

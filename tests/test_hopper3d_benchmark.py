@@ -150,6 +150,8 @@ def test_lammps_accepts_the_deck_and_agrees(small_start):
     assert lmp["steps"] == steps and lmp["wall"] > 0 and lmp["psps"] > 0
     # the same start state and the same model: the same discharge, roughly (chaotic flow)
     assert lmp["discharged"] > 0 and gf["discharged"] > 0
+    # discharged: below the orifice plane; deleted: fallen past the box's bottom as well
+    assert lmp["discharged"] >= lmp["deleted"] and gf["discharged"] >= gf["deleted"]
     assert 1 / 3 <= gf["discharged"] / lmp["discharged"] <= 3
     assert 0.5 <= gf["ke"] / lmp["ke"] <= 2.0
     assert gf["wall_contacts_start"] > 0

@@ -182,6 +182,9 @@ class Simulation:
         #: ``"auto"`` thread choice, over all runs (:class:`~grainflow.engine.threads.ThreadTuner`).
         self.thread_log: list[tuple[int, int, float]] = []
         self._fast_path = FastPath()
+        #: Runs of fewer steps than this step in Python (0: every run uses the compiled step
+        #: loop; benchmarks warm it up so). Default :data:`FAST_PATH_MIN_STEPS`.
+        self.fast_path_min_steps = FAST_PATH_MIN_STEPS
         if law is not None:
             self.add_interaction(law)
 
@@ -367,7 +370,7 @@ class Simulation:
 
         Runs of steps with nothing due in between go through one compiled loop
         (:mod:`grainflow.engine.fast_path`) when every operation offers one and the run has
-        at least :data:`FAST_PATH_MIN_STEPS` steps; the result is bitwise the same.
+        at least :attr:`fast_path_min_steps` steps; the result is bitwise the same.
         """
         if steps < 0:
             raise ValueError("steps: must be >= 0")
@@ -386,7 +389,7 @@ class Simulation:
         ctx = self.context
         clock = self.clock
         end = clock.step + steps
-        fast = self._fast_path if steps >= FAST_PATH_MIN_STEPS else None
+        fast = self._fast_path if steps >= self.fast_path_min_steps else None
         self._fast_path.forget()
         before = numba.get_num_threads()
         tuner = None
