@@ -91,7 +91,6 @@ import hashlib
 import json
 import math
 import os
-import platform
 import re
 import shutil
 import subprocess
@@ -102,6 +101,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from chute import cpu_model  # benchmarks/chute.py, beside this script
 
 HERE = Path(__file__).resolve().parent
 DECK = HERE / "lammps" / "in.hopper3d"
@@ -416,17 +417,6 @@ for mode in ("default", "python_path"):
     out[mode] = {"total_s": st.total_tt, "top": rows[:15]}
 print(json.dumps(out))
 """
-
-
-def cpu_model() -> str:
-    """The CPU's model name (``/proc/cpuinfo``), else what platform reports."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def _env(threads: int) -> dict:

@@ -195,6 +195,31 @@ def bidisperse_radii(n: int, rng: np.random.Generator, small: float = 0.5,
 
 
 # --------------------------------------------------------------------------- a pile
+def two_law_disks(half_width: float, periodic_x: bool, trials: int
+                  ) -> tuple[ParticleState, GranularLaw, "SoftLaw"]:
+    """Unit disks of types 0 and 1 (alternating) dropped at random without overlap in
+    ``[-half_width, half_width] x [0, 30]`` (``trials`` tries, x within 5.5 of the axis), a
+    granular law for the box and a soft law (type pair (1, 1)), both for 3 types (the
+    third for walls)."""
+    from grainflow.models.soft import SoftLaw
+
+    st = ParticleState(2, Box(np.array([-half_width, 0.0]), np.array([half_width, 30.0]),
+                              (periodic_x, False)))
+    rng = np.random.default_rng(4)
+    x = np.c_[rng.uniform(-5.5, 5.5, trials), rng.uniform(1, 28, trials)]
+    keep = [0]
+    for k in range(1, trials):
+        if np.min(np.linalg.norm(x[keep] - x[k], axis=1)) > 1.05:
+            keep.append(k)
+    x = x[keep]
+    st.add_particles(x, 0.5, density=1.0, type=(np.arange(len(x)) % 2).astype(np.int32))
+    granular = GranularLaw(3)
+    granular.set_all(kn=2e3, gamma_n=10.0, mu=0.4)
+    soft = SoftLaw(3)
+    soft.set_all(epsilon=200.0, mu_k=1.0)
+    return st, granular, soft
+
+
 def build_pile(n_mobile: int = 300, *, seed: int = 7, integrator: Integrator | None = None,
                sort_every: int = 2, cohesion: bool = True) -> Simulation:
     """A small 3D granular pile: polydisperse frictional (optionally cohesive) grains raining

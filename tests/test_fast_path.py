@@ -17,14 +17,10 @@ from typing import Callable
 import numpy as np
 import pytest
 
-from conftest import build_pile
+from conftest import build_pile, two_law_disks
 from grainflow.engine.forces import Gravity
 from grainflow.engine.integrators import AdamsBashforth2
 from grainflow.engine.simulation import Simulation
-from grainflow.frame import Box
-from grainflow.models.granular import GranularLaw
-from grainflow.models.soft import SoftLaw
-from grainflow.state import ParticleState
 from grainflow.walls.force import WallForce
 from grainflow.walls.geometry import Plane
 
@@ -55,19 +51,7 @@ def _hopper(dim: int) -> Callable[[], Simulation]:
 def _two_laws_and_a_moving_wall() -> Simulation:
     """A granular law and a soft law on different type pairs, a static floor and a wall
     pushing in from the side at constant speed (time-dependent wall position)."""
-    st = ParticleState(2, Box(np.array([-8.0, 0.0]), np.array([8.0, 30.0]), (False, False)))
-    rng = np.random.default_rng(4)
-    x = np.c_[rng.uniform(-5.5, 5.5, 200), rng.uniform(1, 28, 200)]
-    keep = [0]
-    for k in range(1, 200):
-        if np.min(np.linalg.norm(x[keep] - x[k], axis=1)) > 1.05:
-            keep.append(k)
-    x = x[keep]
-    st.add_particles(x, 0.5, density=1.0, type=(np.arange(len(x)) % 2).astype(np.int32))
-    granular = GranularLaw(3)
-    granular.set_all(kn=2e3, gamma_n=10.0, mu=0.4)
-    soft = SoftLaw(3)
-    soft.set_all(epsilon=200.0, mu_k=1.0)
+    st, granular, soft = two_law_disks(8.0, False, 200)
     sim = Simulation(st, 2e-4, granular)
     sim.add_interaction(soft, types=[(1, 1)])
     sim.add_force(WallForce([Plane((0, 0), (0, 1)), Plane((-6.0, 0), (1, 0), velocity=(2.0, 0))],

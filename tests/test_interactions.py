@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from conftest import two_law_disks
 from grainflow.engine.forces import Gravity
 from grainflow.engine.simulation import Simulation
 from grainflow.engine.tethers import Tethers, neighbor_bonds
@@ -84,19 +85,7 @@ def _mixed_run(threads: int) -> Simulation:
     before = numba.get_num_threads()
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     try:
-        st = ParticleState(2, Box(np.array([-6.0, 0.0]), np.array([6.0, 30.0]), (True, False)))
-        rng = np.random.default_rng(4)
-        x = np.c_[rng.uniform(-5.5, 5.5, 120), rng.uniform(1, 28, 120)]
-        keep = [0]
-        for k in range(1, 120):
-            if np.min(np.linalg.norm(x[keep] - x[k], axis=1)) > 1.05:
-                keep.append(k)
-        x = x[keep]
-        st.add_particles(x, 0.5, density=1.0, type=(np.arange(len(x)) % 2).astype(np.int32))
-        granular = GranularLaw(3)
-        granular.set_all(kn=2e3, gamma_n=10.0, mu=0.4)
-        soft = SoftLaw(3)
-        soft.set_all(epsilon=200.0, mu_k=1.0)
+        st, granular, soft = two_law_disks(6.0, True, 120)
         sim = Simulation(st, 2e-4, granular, threads=min(threads, numba.config.NUMBA_NUM_THREADS))
         sim.add_interaction(soft, types=[(1, 1)])
         sim.add_force(WallForce([Plane((0, 0), (0, 1))], granular, 2))

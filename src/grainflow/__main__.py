@@ -12,10 +12,11 @@ def main() -> None:
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # a KeyboardInterrupt
     try:
         from grainflow.cli import entry
-    except KeyboardInterrupt:
+
+        entry()
+    except KeyboardInterrupt:  # before entry() handles it (importing, or just after)
         print("error: interrupted", file=sys.stderr)
         sys.exit(130)
-    entry()
 
 
 if __name__ == "__main__":

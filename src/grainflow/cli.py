@@ -181,7 +181,7 @@ def entry(argv: list[str] | None = None) -> None:
     a directory given for a file) turned into one ``error:`` line and exit code 2 as well."""
     try:
         code = app(args=argv, prog_name="grainflow", standalone_mode=False)
-    except typer.Abort:
+    except (typer.Abort, KeyboardInterrupt):  # the latter while typer builds the command
         typer.echo("error: interrupted", err=True)
         sys.exit(130)
     except typer.TyperException as err:  # click's usage errors (typer's own copy of click)

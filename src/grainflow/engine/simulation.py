@@ -102,9 +102,11 @@ ENERGY_MARGIN = 0.5
 WARN_RATIO = {"oscillation": 15.0, "relaxation": 5.0}
 REFUSE_RATIO = {"oscillation": 4.0, "relaxation": 1.0}
 
-#: Runs shorter than this step in Python (compiling the fused step loop of a new set of
-#: operations the first time costs about a second; numba caches it on disk after that).
-FAST_PATH_MIN_STEPS = 1000
+#: Runs shorter than this step in Python: the first run of a new set of operations compiles
+#: its step loop (and, on one thread, serial twins of the kernels: seconds, once; numba caches
+#: them on disk), and even loading them from the cache (0.1-0.3 s) costs what the loop saves
+#: in a few thousand small-system steps.
+FAST_PATH_MIN_STEPS = 5000
 #: Fewer quiet steps than this before the next thing due: a Python step is as quick.
 FAST_PATH_MIN_CHUNK = 4
 
