@@ -94,6 +94,20 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+def print_speed_table(results: dict, workers) -> None:
+    """The table of ``grainflow_W`` / ``lammps_W`` particle-steps per second (and
+    ``ratio_W``) for each worker count ``W``."""
+    print(f"{'code':<14}{'workers':>8}{'M particle-steps/s':>22}{'ratio':>8}")
+    for code, key in (("grainflow", "grainflow"), ("LAMMPS", "lammps")):
+        for w in workers:
+            v = results.get(f"{key}_{w}")
+            if v is None:
+                continue
+            ratio = results.get(f"ratio_{w}") if key == "grainflow" else None
+            rtxt = f"{ratio:8.2f}" if ratio is not None else ""
+            print(f"{code:<14}{w:>8}{v / 1e6:>22.2f}{rtxt}")
+
+
 def run_grainflow(data: Path, steps: int, threads: int, size: str = "1x1") -> dict:
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
                NUMBA_THREADING_LAYER=LAYER)
@@ -200,15 +214,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     print(f"chute benchmark, {args.steps} steps, {results['machine']} ({results['cores']} cores), "
           f"numba threading layer {LAYER}")
-    print(f"{'code':<14}{'workers':>8}{'M particle-steps/s':>22}{'ratio':>8}")
-    for code, key in (("grainflow", "grainflow"), ("LAMMPS", "lammps")):
-        for w in (1, 2):
-            v = results.get(f"{key}_{w}")
-            if v is None:
-                continue
-            ratio = results.get(f"ratio_{w}") if key == "grainflow" else None
-            rtxt = f"{ratio:8.2f}" if ratio is not None else ""
-            print(f"{code:<14}{w:>8}{v / 1e6:>22.2f}{rtxt}")
+    print_speed_table(results, (1, 2))
     if "scaling_2_threads" in results:
         for label, v in results["scaling_2_threads"].items():
             if label != "spread":

@@ -102,7 +102,7 @@ from pathlib import Path
 
 import numpy as np
 
-from chute import cpu_model  # benchmarks/chute.py, beside this script
+from chute import cpu_model, print_speed_table  # benchmarks/chute.py, beside this script
 
 HERE = Path(__file__).resolve().parent
 DECK = HERE / "lammps" / "in.hopper3d"
@@ -593,15 +593,7 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"hopper3d benchmark: {g1['n0']} grains, cylinder R = {h.radius:g}, cone half angle "
           f"{h.half_angle:g} deg, orifice D = {h.orifice:g}; {args.steps} steps after 50; "
           f"{results['machine']} ({results['cores']} cores), numba threading layer {LAYER}")
-    print(f"{'code':<14}{'workers':>8}{'M particle-steps/s':>22}{'ratio':>8}")
-    for code, key in (("grainflow", "grainflow"), ("LAMMPS", "lammps")):
-        for w in workers:
-            v = results.get(f"{key}_{w}")
-            if v is None:
-                continue
-            ratio = results.get(f"ratio_{w}") if key == "grainflow" else None
-            rtxt = f"{ratio:8.2f}" if ratio is not None else ""
-            print(f"{code:<14}{w:>8}{v / 1e6:>22.2f}{rtxt}")
+    print_speed_table(results, workers)
     print(f"physics after {50 + args.steps} steps (orifice opened at step 0):")
     for name, p in results["physics"].items():
         if isinstance(p, dict):
