@@ -103,6 +103,7 @@ class FastPath:
         self._loops: dict[tuple, Any] = {}
         self._calls: tuple | None = None
         self._calls_key: tuple | None = None
+        self._serial = False  # the step calls were collected for one thread
         #: Steps taken in the compiled loop so far (for tests and profiles).
         self.steps_done = 0
 
@@ -118,7 +119,7 @@ class FastPath:
         threads = numba.get_num_threads()
         key = (sim.neighbors.builds, sim.state.generation, sim.state.n, threads)
         if key != self._calls_key:
-            _serial["now"] = threads == 1
+            _serial["now"] = self._serial = threads == 1
             self._calls = self._collect(sim)
             self._calls_key = key
         return self._calls
@@ -143,8 +144,7 @@ class FastPath:
         """Up to ``k`` steps (see :func:`_run_steps`); the caller advances the clock."""
         pre, post, ops = calls
         ops = ops + [StepCall(nothing, ())] * (SLOTS - len(ops))
-        displacement = max_displacement_sq if self._calls_key[3] > 1 else serial(
-            max_displacement_sq)
+        displacement = serial(max_displacement_sq) if self._serial else max_displacement_sq
         key = (pre.adapter, post.adapter, displacement, *(op.adapter for op in ops))
         loop = self._loops.get(key)
         if loop is None:
