@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from grainflow.engine import simulation as simulation_module
-from grainflow.engine.threads import SERIAL_BELOW, ThreadTuner, check_threads
+from grainflow.engine.threads import ThreadTuner, check_threads
 
 
 class FakeMachine:
@@ -32,7 +32,7 @@ class FakeMachine:
         """Step until ``seconds`` of fake time have passed; steps done per thread count."""
         done = 0
         step = 0
-        tuner.begin(step, n, done)
+        tuner.begin(step, done)
         steps_on: dict[int, int] = {}
         while self.now < seconds:
             self.now += self.cost(self.threads, self.now) * n
@@ -64,12 +64,12 @@ def test_auto_keeps_the_faster_count_and_probes_little(n: int) -> None:
     assert share(steps, 1) > 0.95
 
 
-def test_auto_starts_serial_below_the_threshold() -> None:
-    machine = FakeMachine(lambda t, now: 1e-7)
+def test_auto_starts_on_one_thread_and_finds_two_within_a_second() -> None:
+    machine = FakeMachine(lambda t, now: 1e-7 / (1.8 if t == 2 else 1.0))
     tuner = tuner_on(machine)
-    tuner.begin(0, SERIAL_BELOW - 1, 0)
+    tuner.begin(0, 0)
     assert machine.threads == 1
-    tuner.begin(0, SERIAL_BELOW, 0)
+    machine.run(tuner, 32000, 1.0)
     assert machine.threads == 2
 
 
@@ -140,3 +140,28 @@ def test_threads_are_checked() -> None:
     assert sim.threads == "auto"
     with pytest.raises(ValueError, match="threads"):
         sim.threads = 0
+
+
+def test_the_choice_carries_over_from_run_to_run() -> None:
+    """A loop of short runs goes on with the count chosen so far, not from one thread."""
+    machine = FakeMachine(lambda t, now: 1e-7 / (1.8 if t == 2 else 1.0))
+    tuner = tuner_on(machine)
+    machine.run(tuner, 32000, 5.0)
+    assert machine.threads == 2
+    tuner.resume(10**6, 0)
+    assert machine.threads == 2
+    # a trial under way when a run ends is dropped: the count in use stays
+    tuner._trial = 2
+    tuner._other, tuner.threads = 2, 1
+    tuner.resume(10**6, 0)
+    assert machine.threads == 2 and not tuner._trial
+
+
+def test_a_simulation_keeps_its_tuner() -> None:
+    from grainflow.scenarios.chute import chute_cut
+
+    sim = chute_cut(0.25, 0.16)
+    sim.run(20)
+    tuner = sim._tuner
+    sim.run(20)
+    assert sim._tuner is tuner and sim.thread_log[-1][0] <= 40

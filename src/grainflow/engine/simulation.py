@@ -184,6 +184,7 @@ class Simulation:
         #: ``"auto"`` thread choice, over all runs (:class:`~grainflow.engine.threads.ThreadTuner`).
         self.thread_log: list[tuple[int, int, float]] = []
         self._fast_path = FastPath()
+        self._tuner: ThreadTuner | None = None  # the "auto" choice, kept from run to run
         #: Runs of fewer steps than this step in Python (0: every run uses the compiled step
         #: loop; benchmarks warm it up so). Default :data:`FAST_PATH_MIN_STEPS`.
         self.fast_path_min_steps = FAST_PATH_MIN_STEPS
@@ -396,8 +397,12 @@ class Simulation:
         before = numba.get_num_threads()
         tuner = None
         if self._threads == "auto":
-            tuner = ThreadTuner(before, log=self.thread_log)
-            tuner.begin(clock.step, self.state.n, self.particle_steps)
+            tuner = self._tuner
+            if tuner is None or tuner.cap != before:
+                tuner = self._tuner = ThreadTuner(before, log=self.thread_log)
+                tuner.begin(clock.step, self.particle_steps)
+            else:
+                tuner.resume(clock.step, self.particle_steps)
         else:
             numba.set_num_threads(min(self._threads, numba.config.NUMBA_NUM_THREADS))
         t0 = _time.perf_counter()

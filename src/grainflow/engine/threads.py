@@ -11,15 +11,20 @@ measures:
 
 - it chooses between one thread and ``cap`` threads (numba's count when the run starts:
   ``NUMBA_NUM_THREADS`` or :func:`numba.set_num_threads`, so a cap of 1 turns it off);
-- it starts with one thread below :data:`SERIAL_BELOW` particles, with ``cap`` above;
+- it starts with one thread: on a loaded machine the other count can be tens of times
+  slower, and on an idle one the first trial switches within a few tenths of a second;
 - it times the run in windows of about :attr:`ThreadTuner.window_s` seconds; after the
-  first full window, and then now and then, it tries the other count in three short
-  *trial* windows (:attr:`ThreadTuner.probe_s`, the same, then ten times that, sized at
-  the pace of the count in use and at least :attr:`ThreadTuner.probe_min_steps` steps,
-  because the other count may be tens of times slower); the other count is adopted only if
-  every trial window costs less per particle-step than the median of the last three full
-  windows, by more than :attr:`ThreadTuner.margin` (one short window can be lucky: on a
-  loaded machine the busy process is sometimes off the CPU for a few milliseconds);
+  first full window, and then now and then, it runs a *trial* of the other count in short
+  windows: first :attr:`ThreadTuner.probe_min_steps` steps, not judged (the threads wake
+  up), then at least :data:`TRIAL_WINDOWS` windows of :attr:`ThreadTuner.probe_s` at the
+  pace of the count in use, until they add up to :attr:`ThreadTuner.trial_s` at that pace.
+  The judged windows together costing more than twice :attr:`ThreadTuner.abort` times the
+  count in use after the first, or :attr:`ThreadTuner.abort` times after the second, end
+  the trial at once (on a loaded machine two threads can be 50x slower, so a trial must
+  stay short; one short window can hold a list rebuild, several times a step); otherwise the other count is
+  adopted if the trial's particle-steps cost less, all windows together, than the median
+  of the last three full windows, by more than :attr:`ThreadTuner.margin` (together: one
+  short window may hold a list rebuild, or be lucky);
 - a trial that loses doubles the time to the next one (from :attr:`ThreadTuner.base_wait_s`
   up to :attr:`ThreadTuner.max_wait_s`), so trials cost a few per cent of the run at most;
 - when the median of the last three windows costs more than :attr:`ThreadTuner.change`
@@ -27,7 +32,8 @@ measures:
   within :attr:`ThreadTuner.change_wait_s` seconds (not at once: on a loaded machine short
   windows are noisy, and every trial of a count that loses costs time).
 
-The simulation restores the thread count in force before the run when the run ends.
+The simulation keeps its tuner from run to run (a loop of short runs does not start over
+on one thread each time) and restores numba's thread count when each run ends.
 """
 
 from __future__ import annotations
@@ -38,11 +44,10 @@ from typing import Callable, Literal, Union
 
 import numba
 
-#: Below this many particles ``"auto"`` starts with one thread (idle, two threads gain at
-#: most a few per cent there; loaded, one thread is several times faster).
-SERIAL_BELOW = 4000
-
 Threads = Union[int, Literal["auto"]]
+
+#: Judged windows a trial runs at least (after one that wakes the threads up).
+TRIAL_WINDOWS = 3
 
 
 def check_threads(threads: object) -> Threads:
@@ -72,6 +77,8 @@ class ThreadTuner:
     probe_min_steps: int = 3
     base_wait_s: float = 0.5
     max_wait_s: float = 64.0
+    trial_s: float = 0.05
+    abort: float = 4.0
     margin: float = 0.05
     change: float = 2.0
     change_wait_s: float = 2.0
@@ -80,19 +87,31 @@ class ThreadTuner:
     log: list[tuple[int, int, float]] = field(default_factory=list)
     next_step: int = 0
 
-    def begin(self, step: int, n_particles: int, particle_steps: int) -> None:
-        """Set the starting count and open the first window at ``step``."""
-        self.threads = 1 if n_particles < SERIAL_BELOW or self.cap == 1 else self.cap
+    def begin(self, step: int, particle_steps: int) -> None:
+        """Start on one thread and open the first window at ``step``."""
+        self.threads = 1
         self.set_threads(self.threads)
         self._recent: list[float] = []  # costs of the last full windows of the count in use
         self._settled_cost = float("inf")  # its typical cost when it was last chosen
         self._pace = 0.0  # seconds per step of the count in use
-        self._trial: list[float] = []  # lengths (seconds) of the trial windows still to run
-        self._reference = float("inf")  # what a trial window must beat
+        self._trial = 0  # trial windows still to run (0: no trial under way)
+        self._trial_time = 0.0  # seconds, particle-steps and steps of its judged windows
+        self._trial_done = 0
+        self._trial_steps_done = 0
+        self._trial_pace = 0.0  # seconds per step of the count in use when it began
+        self._reference = float("inf")  # what the trial must beat
         self._other = self.threads
-        self._wait = 0.0  # the first probe comes after the first full window
+        self._wait = 0.0  # the first trial comes after the first full window
         self._since_probe = 0.0
         self._open(step, particle_steps, 1)
+
+    def resume(self, step: int, particle_steps: int) -> None:
+        """Go on in a new run with the count chosen so far (a trial under way is dropped)."""
+        if self._trial:
+            self._trial = 0
+            self.threads = self._other
+        self.set_threads(self.threads)
+        self._open(step, particle_steps, self._steps_for(self.window_s))
 
     def tick(self, step: int, particle_steps: int) -> None:
         """Close the window ending at ``step`` (``particle_steps``: the run's running total)
@@ -103,20 +122,30 @@ class ThreadTuner:
         steps = max(step - self._step0, 1)
         cost = elapsed / done if done > 0 else float("inf")
         self.log.append((step, self.threads, cost))
-        if self._trial:  # a window of the other count: it must win every time
-            if cost < (1.0 - self.margin) * self._reference:
-                self._trial.pop(0)
-                if not self._trial:  # adopted
-                    self._settled_cost = cost
-                    self._recent = []
-                    self._pace = elapsed / steps
-                    self._wait = self.base_wait_s
-                    self._since_probe = 0.0
-                    self._open(step, particle_steps, self._steps_for(self.window_s), now)
-                    return
+        if self._trial:  # a window of the other count
+            self._trial -= 1
+            if self._trial < TRIAL_WINDOWS:  # judged (the first one wakes the threads up)
+                self._trial_time += elapsed
+                self._trial_done += done
+                self._trial_steps_done += steps
+                so_far = self._trial_time / max(self._trial_done, 1) / self._reference
+                if so_far > 2.0 * self.abort or (self._trial < TRIAL_WINDOWS - 1
+                                                 and so_far > self.abort):
+                    self._trial = 0  # far worse: stop at once
+                elif self._trial_steps_done * self._trial_pace < self.trial_s:
+                    self._trial = max(self._trial, 1)  # not enough seen yet: go on
+            if self._trial:
                 self._open(step, particle_steps, self._trial_steps(), now)
                 return
-            self._trial = []
+            verdict = self._trial_time / self._trial_done if self._trial_done else float("inf")
+            if verdict < (1.0 - self.margin) * self._reference:  # adopted
+                self._settled_cost = verdict
+                self._recent = []
+                self._pace = elapsed / steps
+                self._wait = self.base_wait_s
+                self._since_probe = 0.0
+                self._open(step, particle_steps, self._steps_for(self.window_s), now)
+                return
             self._switch(self._other)
             self._settled_cost = self._reference  # the count in use is still the best
             self._wait = min(max(2.0 * self._wait, self.base_wait_s), self.max_wait_s)
@@ -133,7 +162,11 @@ class ThreadTuner:
                 self._wait = min(self._wait, self.change_wait_s)  # conditions changed
             if self.cap > 1 and self._since_probe >= self._wait:
                 self._reference = self._typical()
-                self._trial = [self.probe_s, self.probe_s, 10.0 * self.probe_s]
+                self._trial = TRIAL_WINDOWS + 1
+                self._trial_time = 0.0
+                self._trial_done = 0
+                self._trial_steps_done = 0
+                self._trial_pace = self._pace
                 self._other = self.threads
                 self._switch(1 if self.threads != 1 else self.cap)
                 self._open(step, particle_steps, self._trial_steps(), now)
@@ -141,9 +174,12 @@ class ThreadTuner:
         self._open(step, particle_steps, min(self._steps_for(self.window_s), 10 * steps), now)
 
     def _trial_steps(self) -> int:
-        """Steps of the next trial window: its length at the pace of the count being left
-        (the one known to be good), so that a much slower trial stays short."""
-        return max(self._steps_for(self._trial[0]), self.probe_min_steps)
+        """Steps of the next trial window: :attr:`probe_min_steps` for the first (it wakes
+        the threads up), then :attr:`probe_s` at the pace of the count being left (the one
+        known to be good), so that a much slower trial stays short."""
+        if self._trial > TRIAL_WINDOWS:
+            return self.probe_min_steps
+        return max(self._steps_for(self.probe_s), self.probe_min_steps)
 
     def _typical(self) -> float:
         """The median of the last full windows of the count in use."""
