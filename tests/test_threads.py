@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from grainflow.engine import simulation as simulation_module
-from grainflow.engine.threads import ThreadTuner, check_threads
+from grainflow.engine.threads import SERIAL_BELOW, ThreadTuner, check_threads
 
 
 class FakeMachine:
@@ -32,7 +32,7 @@ class FakeMachine:
         """Step until ``seconds`` of fake time have passed; steps done per thread count."""
         done = 0
         step = 0
-        tuner.begin(step, done)
+        tuner.begin(step, n, done)
         steps_on: dict[int, int] = {}
         while self.now < seconds:
             self.now += self.cost(self.threads, self.now) * n
@@ -64,12 +64,14 @@ def test_auto_keeps_the_faster_count_and_probes_little(n: int) -> None:
     assert share(steps, 1) > 0.95
 
 
-def test_auto_starts_on_one_thread_and_finds_two_within_a_second() -> None:
+def test_auto_starts_serial_below_the_threshold_and_finds_the_faster_count() -> None:
     machine = FakeMachine(lambda t, now: 1e-7 / (1.8 if t == 2 else 1.0))
     tuner = tuner_on(machine)
-    tuner.begin(0, 0)
+    tuner.begin(0, SERIAL_BELOW - 1, 0)
     assert machine.threads == 1
-    machine.run(tuner, 32000, 1.0)
+    tuner.begin(0, SERIAL_BELOW, 0)
+    assert machine.threads == 2
+    machine.run(tuner, 1600, 1.0)  # small, but two threads are faster here: found in 1 s
     assert machine.threads == 2
 
 

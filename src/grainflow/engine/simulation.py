@@ -400,7 +400,7 @@ class Simulation:
             tuner = self._tuner
             if tuner is None or tuner.cap != before:
                 tuner = self._tuner = ThreadTuner(before, log=self.thread_log)
-                tuner.begin(clock.step, self.particle_steps)
+                tuner.begin(clock.step, self.state.n, self.particle_steps)
             else:
                 tuner.resume(clock.step, self.particle_steps)
         else:

@@ -11,8 +11,9 @@ measures:
 
 - it chooses between one thread and ``cap`` threads (numba's count when the run starts:
   ``NUMBA_NUM_THREADS`` or :func:`numba.set_num_threads`, so a cap of 1 turns it off);
-- it starts with one thread: on a loaded machine the other count can be tens of times
-  slower, and on an idle one the first trial switches within a few tenths of a second;
+- it starts with one thread below :data:`SERIAL_BELOW` particles (idle, two threads gain
+  little there; loaded, they are tens of times slower) and with ``cap`` above (the idle
+  case, where a wrong start costs most; loaded, the first trial comes after 0.1 s);
 - it times the run in windows of about :attr:`ThreadTuner.window_s` seconds; after the
   first full window, and then now and then, it runs a *trial* of the other count in short
   windows: first :attr:`ThreadTuner.probe_min_steps` steps, not judged (the threads wake
@@ -45,6 +46,9 @@ from typing import Callable, Literal, Union
 import numba
 
 Threads = Union[int, Literal["auto"]]
+
+#: Below this many particles ``"auto"`` starts on one thread.
+SERIAL_BELOW = 4000
 
 #: Judged windows a trial runs at least (after one that wakes the threads up).
 TRIAL_WINDOWS = 3
@@ -87,9 +91,9 @@ class ThreadTuner:
     log: list[tuple[int, int, float]] = field(default_factory=list)
     next_step: int = 0
 
-    def begin(self, step: int, particle_steps: int) -> None:
-        """Start on one thread and open the first window at ``step``."""
-        self.threads = 1
+    def begin(self, step: int, n_particles: int, particle_steps: int) -> None:
+        """Set the starting count and open the first window at ``step``."""
+        self.threads = 1 if n_particles < SERIAL_BELOW else self.cap
         self.set_threads(self.threads)
         self._recent: list[float] = []  # costs of the last full windows of the count in use
         self._settled_cost = float("inf")  # its typical cost when it was last chosen
