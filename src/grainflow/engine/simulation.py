@@ -420,6 +420,7 @@ class Simulation:
                     done, clock.time, pending = fast.run(self, quiet, calls)
                     clock.step += done
                     self.particle_steps += self.state.n * done
+                    self.forces_current = True
                 else:
                     integ.pre_force(ctx)
                     pending = True
@@ -429,7 +430,6 @@ class Simulation:
                     clock.step += 1
                     clock.time += clock.dt
                     self.particle_steps += self.state.n
-                self.forces_current = True
                 if self._after_step(tuner, until, until_every):
                     break
         finally:
