@@ -30,9 +30,10 @@ def _pair_step(a, time, dt):
     """:meth:`PairInteraction.compute` (``update=True``) in the compiled step loop; the
     pair kernel ``KERNEL`` and the gather ``GATHER`` are bound by
     :meth:`PairInteraction.step_call`."""
-    kernel_head, kernel_tail, gather = a
-    KERNEL(*kernel_head, dt, True, *kernel_tail)  # noqa: F821
-    GATHER(*gather)  # noqa: F821
+    KERNEL(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
+           a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], dt,
+           True, a[22], a[23])
+    GATHER(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])  # noqa: F821
 
 
 class PairInteraction(Force):
@@ -125,9 +126,9 @@ class PairInteraction(Force):
     # ------------------------------------------------------------------ forces
     def compute(self, ctx: ForceContext, update: bool, first: bool = False) -> None:
         """Evaluate the law over the list; ``first``: set (not add to) force and torque."""
-        kernel, (kernel_head, kernel_tail, gather) = self._prepare(ctx, first)
-        kernel(*kernel_head, ctx.dt, update, *kernel_tail)
-        gather_pair_forces(*gather)
+        kernel, a = self._prepare(ctx, first)
+        kernel(*a[:22], ctx.dt, update, a[22], a[23])
+        gather_pair_forces(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])
 
     def step_call(self, ctx: ForceContext, first: bool = False) -> StepCall:
         """``compute(ctx, update=True, first)`` for the compiled step loop."""
@@ -136,9 +137,8 @@ class PairInteraction(Force):
                          GATHER=gather_pair_forces)
 
     def _prepare(self, ctx: ForceContext, first: bool) -> tuple[Any, tuple]:
-        """The pair kernel for ``first`` and ``(kernel arguments before dt and update,
-        kernel arguments after them, gather arguments)``, with the per-list arrays brought
-        up to date."""
+        """The pair kernel for ``first`` and its arguments but ``dt`` and ``update`` (the
+        layout :func:`_pair_step` reads), with the per-list arrays brought up to date."""
         st = ctx.state
         nl = ctx.neighbors
         g = ctx.geometry
@@ -152,13 +152,11 @@ class PairInteraction(Force):
         kernel = self._kernels.get(key)
         if kernel is None:
             kernel = self._kernels[key] = pair_kernel(self.law.evaluator, *key)
-        kernel_head = (self.law.table, self.law.reach(), self.use, st.x, st.v, st.omega,
-                       st.radius, st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr, nl.pair_col,
-                       nl.col_span, chunks, self.history, self.fc_pair, self.active,
-                       self.active_col, self.col_sum, g.length, g.periodic)
-        gather = (nl.col_ptr, nl.col_pair, nl.col_span, chunks, self.fc_pair, self.active_col,
-                  self.col_sum, st.radius, st.force, st.torque)
-        return kernel, (kernel_head, (st.force, st.torque), gather)
+        return kernel, (self.law.table, self.law.reach(), self.use, st.x, st.v, st.omega,
+                        st.radius, st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr,
+                        nl.pair_col, nl.col_span, chunks, self.history, self.fc_pair,
+                        self.active, self.active_col, self.col_sum, g.length, g.periodic,
+                        st.force, st.torque, nl.col_ptr, nl.col_pair)
 
     def contacts(self, ctx: ForceContext) -> list[ContactRows]:
         """Interacting pairs at the last evaluation: force on i, branch x_i - x_j."""

@@ -204,10 +204,8 @@ def _wall_step(a, time, dt):
     """:meth:`WallForce.compute` (``update=True``) in the compiled step loop: the walls at
     the end of the step, ``time + dt``; the wall kernel ``KERNEL`` is bound by
     :meth:`WallForce.step_call`."""
-    head, after_shift, force_torque, out_visit = a
-    velocity = after_shift[0]
-    KERNEL(*head, velocity * (time + dt), *after_shift, dt, True,  # noqa: F821
-           *force_torque, False, *out_visit)
+    KERNEL(a[0], a[1], a[2], a[3], a[4], a[5] * (time + dt), a[5], a[6], a[7], a[8],  # noqa: F821
+           a[9], a[10], a[11], a[12], a[13], a[14], dt, True, a[15], a[16], False, a[17], a[18])
 
 
 class WallForce(Force):
@@ -334,25 +332,23 @@ class WallForce(Force):
              torque: np.ndarray, out: np.ndarray | None) -> None:
         st = ctx.state
         visit = np.arange(st.n, dtype=np.int64) if out is not None else self._near(ctx)
-        head, after_shift, force_torque, out_visit = self._arguments(ctx, force, torque, out,
-                                                                      visit)
-        self._kernel(*head, self._shift(time), *after_shift, ctx.dt, update, *force_torque,
-                     out is not None, *out_visit)
+        a = self._arguments(ctx, force, torque, out, visit)
+        self._kernel(*a[:5], self._shift(time), *a[5:15], ctx.dt, update, a[15], a[16],
+                     out is not None, a[17], a[18])
 
     def _arguments(self, ctx: ForceContext, force: np.ndarray, torque: np.ndarray,
                    out: np.ndarray | None, visit: np.ndarray) -> tuple:
-        """The wall kernel's arguments around the shift, ``dt``, ``update`` and the record
-        flag: ``(before the shift, from the wall velocity to reach, force and torque, out
-        and visit)``."""
+        """The wall kernel's arguments but the shift, ``dt``, ``update`` and the record flag
+        (the layout :func:`_wall_step` reads)."""
         st = ctx.state
         self._check_types(st)
         law = self.law
         if self._kernel is None:
             self._kernel = wall_kernel(law.evaluator)
-        return ((law.table, self.wall_type, self._acts_on, self.kinds, self.params),
-                (self.velocity, st.x, st.v, st.omega, st.radius, st.mass, st.type, st.frozen,
-                 self._history(st), law.reach()),
-                (force, torque), (self._no_record if out is None else out, visit))
+        return (law.table, self.wall_type, self._acts_on, self.kinds, self.params,
+                self.velocity, st.x, st.v, st.omega, st.radius, st.mass, st.type, st.frozen,
+                self._history(st), law.reach(), force, torque,
+                self._no_record if out is None else out, visit)
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
