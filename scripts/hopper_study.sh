@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
-# Seed 003 hopper study: sweeps, Beverloo and sigmoid fits, v_g(h), report.md.
-#   scripts/hopper_study.sh [OUT_DIR]          reduced version (about 30 min on 2 cores)
-#   scripts/hopper_study.sh --full [OUT_DIR]   full version (see docs/hopper_study.md for cost)
+# Seed 003 hopper study on the authors' conventions (the second pass): sweeps, free / fixed /
+# bounded Beverloo fits, beta(lambda), report.md. Extra arguments go to `grainflow study`
+# (e.g. --scheduler ADDR, --convention grainflow for the first pass).
+#   scripts/hopper_study.sh [OUT_DIR] [ARGS]          reduced version (about 30 min on 2 cores)
+#   scripts/hopper_study.sh --full [OUT_DIR] [ARGS]   full version (docs/hopper_study.md: cost)
 set -euo pipefail
 FULL=()
 if [[ "${1:-}" == "--full" ]]; then FULL=(--full); shift; fi
-exec grainflow study hopper -o "${1:-hopper_study}" "${FULL[@]}"
+OUT="${1:-hopper_study}"
+shift || true
+exec grainflow study hopper -o "$OUT" "${FULL[@]}" "$@"

@@ -216,6 +216,30 @@ def test_beverloo_without_errors_and_bad_input():
         fit_beverloo(x, np.where(x < 5, 0.0, q))
 
 
+def test_bounded_beverloo_fit_as_the_paper_fitted():
+    """The seed authors' bounded fit (beta <= 1.58, k >= 0.5): inside the bounds the free
+    answer; beyond them the parameter stops on its bound and is marked, and the fit is
+    worse than the free one."""
+    x, q, err = noisy_beverloo(np.random.default_rng(3), 0.3, 0.8, 1.8, rel_err=0.01)
+    free = fit_beverloo(x, q, Q_err=err)
+    bounded = fit_beverloo(x, q, Q_err=err, beta_bounds=(1e-6, 1.58), k_min=0.5)
+    assert abs(free.beta - 1.8) < 3 * free.beta_err and free.at_bound == ()
+    assert bounded.beta == pytest.approx(1.58) and "beta" in bounded.at_bound
+    assert bounded.k >= 0.5 and bounded.chi2 > free.chi2
+    x, q, err = noisy_beverloo(np.random.default_rng(4), 0.14, 1.6, 1.5, rel_err=0.01)
+    inside = fit_beverloo(x, q, Q_err=err, beta_bounds=(1e-6, 1.58), k_min=0.5)
+    plain = fit_beverloo(x, q, Q_err=err)
+    assert inside.at_bound == () and inside.beta == pytest.approx(plain.beta, rel=1e-4)
+    low = fit_beverloo(x, q, Q_err=err, beta_bounds=(1e-6, 1.58), k_min=1.9)
+    assert low.k == pytest.approx(1.9) and low.at_bound == ("k",)
+    with pytest.raises(ValueError, match="beta_bounds"):
+        fit_beverloo(x, q, beta=1.5, beta_bounds=(1.0, 2.0))
+    with pytest.raises(ValueError, match="beta_bounds"):
+        fit_beverloo(x, q, beta_bounds=(2.0, 1.0))
+    with pytest.raises(ValueError, match="k_min"):
+        fit_beverloo(x, q, k_min=float(x.min()) + 1.0)
+
+
 # ------------------------------------------------------------------------- eq. 14
 
 

@@ -13,12 +13,15 @@ from grainflow.config.schema import load_config
 from grainflow.engine.simulation import Simulation
 from grainflow.frame import Box
 from grainflow.scenarios import get_scenario
+from grainflow.scenarios.hopper_units import AUTHORS_CODE
 from grainflow.scenarios.hopper import (
     LIMIT_MU,
     LIMIT_ZETA,
     SIGMA_SMALL,
     HopperSection,
     build_hopper,
+    MEAN_GRAIN_MASS,
+    Dissipation,
     dissipation,
     hopper_updater,
     prepare,
@@ -47,12 +50,91 @@ def _pair_overlaps(st) -> np.ndarray:
 
 def test_units_and_limits() -> None:
     assert SIGMA_SMALL * (1 + 1.4) / 2 == pytest.approx(1.0)
-    assert dissipation(HopperSection(lam=0.0)) == (0.0, LIMIT_MU)
-    assert dissipation(HopperSection(lam=math.inf)) == (LIMIT_ZETA, 0.0)
-    zeta, mu = dissipation(HopperSection(lam=0.05))
-    assert zeta / mu == pytest.approx(0.05)
+    assert dissipation(HopperSection(lam=0.0)) == Dissipation(LIMIT_MU, 0.0, False)
+    assert dissipation(HopperSection(lam=math.inf)) == Dissipation(0.0, LIMIT_ZETA, False)
+    mid = dissipation(HopperSection(lam=0.05))
+    assert mid.drag / mid.mu == pytest.approx(0.05)
     with pytest.raises(ValueError, match="zeta/mu"):
         HopperSection(zeta=1.0)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_authors_lambda_path(dim: int) -> None:
+    """The authors' sweep: mu at its limit while the drag rises to its limit (lambda up to
+    lambda* = zeta_l/mu_l, 0.181 in 2D), then the drag at its limit while mu falls; lambda is
+    zeta/mu with zeta = gamma M of a sigma_avg grain; both limits as converted."""
+    mass = MEAN_GRAIN_MASS[dim]
+    mu_l = AUTHORS_CODE.units.mu(10.0)
+    gamma_l = AUTHORS_CODE.units.gamma(0.1)
+    authors = {"convention": "authors"}
+    assert dissipation(HopperSection(lam=0.0, **authors), dim) == Dissipation(mu_l, 0.0, True)
+    assert dissipation(HopperSection(lam=math.inf, **authors), dim) == Dissipation(
+        0.0, gamma_l, True)
+    lam_star = gamma_l * mass / mu_l
+    if dim == 2:
+        assert lam_star == pytest.approx(0.181, abs=1e-3)
+    for lam in (1e-4, 0.5 * lam_star, lam_star, 2 * lam_star, 50.0):
+        d = dissipation(HopperSection(lam=lam, **authors), dim)
+        assert d.drag * mass / d.mu == pytest.approx(lam)
+        if lam <= lam_star:
+            assert d.mu == mu_l
+        else:
+            assert d.drag == gamma_l
+    # the grainflow path interpolates both
+    d = dissipation(HopperSection(lam=lam_star, convention="authors",
+                                  lambda_path="interpolate"), dim)
+    assert d.mu == pytest.approx(0.5 * mu_l) and d.drag == pytest.approx(0.5 * gamma_l)
+
+
+def test_sp_options_reach_the_law_and_the_drag() -> None:
+    from grainflow.engine.forces import Drag
+    from grainflow.scenarios.hopper import HopperLid
+    from grainflow.walls import WallForce
+
+    sim = build_hopper(HopperSection(n=60, width=12.0, orifice_width=4.0, convention="authors",
+                                     lam=1.0), 2)
+    law = sim.interactions[0].law
+    row = law.row(0, 1)
+    assert row["epsilon_scales"] == 1.0 and row["kinetic_on"] == 0.0
+    assert row["epsilon"] == pytest.approx(AUTHORS_CODE.units.pair_force_scale(10.0))
+    wall = law.row(0, 2)
+    assert wall["epsilon"] == pytest.approx(2 * AUTHORS_CODE.units.wall_energy(100.0))
+    assert wall["mu_k"] == 0.0
+    drag = next(f for f in sim.forces if isinstance(f, Drag))
+    assert drag.gamma is not None and drag.zeta is None
+    lids = [u.owner for u in sim.updaters if isinstance(u.owner, HopperLid)]
+    assert len(lids) == 1 and lids[0].open_time == pytest.approx(AUTHORS_CODE.lid_time)
+    n_walls = sum(isinstance(f, WallForce) for f in sim.forces)
+    prepare(sim)
+    sim.run(int(AUTHORS_CODE.lid_time / sim.dt) + 200)
+    assert lids[0].opened
+    assert sum(isinstance(f, WallForce) for f in sim.forces) == n_walls - 1
+    up = hopper_updater(sim)
+    assert up.placement == "lanes" and up.count_at == "reinsertion" and up.depth == 2.5
+
+
+def test_lid_holds_the_grains_until_it_opens() -> None:
+    """No grain crosses the orifice plane while the lid is on; they do once it opens."""
+    section = HopperSection(n=80, width=10.0, orifice_width=5.0, lid_time=3.0, E_w=1e3, lam=0.0)
+    sim = build_hopper(section, 2)
+    prepare(sim)
+    sim.run(int(2.9 / sim.dt))
+    assert sim.state.x[:, 1].min() > -0.5
+    sim.run(int(3.0 / sim.dt))
+    assert sim.state.x[:, 1].min() < -0.5
+
+
+def test_option_errors_name_the_field() -> None:
+    with pytest.raises(ValueError, match="drag_factor"):
+        HopperSection(convention="authors", drag_factor=16.0)
+    with pytest.raises(ValueError, match="reinsert_bulk_contacts"):
+        HopperSection(reinsertion="lanes", reinsert_bulk_contacts=3)
+    for field, bad in (("convention", "paper"), ("friction_on", "normal"), ("drag_on", "volume"),
+                       ("stiffness", "mass"), ("lambda_path", "linear"),
+                       ("reinsertion", "top"), ("count_at", "exit"), ("lid_time", -1.0),
+                       ("mu_limit", 0.0), ("drag_limit", -1.0)):
+        with pytest.raises(ValueError, match=field):
+            HopperSection(**{field: bad})
 
 
 def test_geometry_builds_2d_and_3d() -> None:
@@ -63,8 +145,10 @@ def test_geometry_builds_2d_and_3d() -> None:
     assert st.n == 100 and np.all(np.abs(st.x[:, 0]) + st.radius <= 6.0 + 1e-12)
     assert set(np.unique(st.type)) == {0, 1}
     assert np.isclose(np.sort(np.unique(2 * st.radius)), [SIGMA_SMALL, 1.4 * SIGMA_SMALL]).all()
-    # grains sit above the slanted bottom, i.e. above the bottom walls' upper end
-    assert st.x[:, 1].min() > 0.5 * (12.0 - 4.0) / math.tan(math.radians(60.0))
+    # grains sit inside the funnel, clear of the slanted walls (60 degrees from vertical)
+    t = math.radians(60.0)
+    gap = (2.0 + st.x[:, 1] * math.tan(t) - np.abs(st.x[:, 0])) * math.cos(t)
+    assert np.all(gap >= st.radius - 1e-9) and st.x[:, 1].min() > 0
     sim3 = build_hopper(HopperSection(n=200, width=8.0, orifice_width=3.0), 3)
     kinds = [type(w) for f in sim3.forces if hasattr(f, "walls") for w in f.walls]
     assert kinds == [Cylinder, PlateWithHole]
@@ -247,3 +331,51 @@ def test_flow_summary_is_named_where_it_lives() -> None:
     assert names == {"grainflow.studies.hopper_results:flow_summary"}
     module, _, attr = names.pop().partition(":")
     assert getattr(importlib.import_module(module), attr) is flow_summary
+
+
+def test_docs_hopper_table_lists_every_field() -> None:
+    """docs/hopper_study.md's `[hopper]` table has one row per field, with its default."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "hopper_study.md").read_text()
+    table = text.split("## The `[hopper]` table", 1)[1].split("\n## ", 1)[0]
+    rows = {line.split("|")[1].strip().strip("`"): line.split("|")[2].strip()
+            for line in table.splitlines() if line.startswith("| `")}
+    assert set(rows) == set(HopperSection.model_fields)
+    for name, field in HopperSection.model_fields.items():
+        assert rows[name] == repr(field.default), name
+
+
+def test_lid_opened_before_a_checkpoint_stays_open_on_resume() -> None:
+    """A run restored from a state written after the lid opened has no lid: it continues
+    bitwise like the uninterrupted run."""
+    section = HopperSection(n=80, width=10.0, orifice_width=5.0, lid_time=0.5, E_w=1e3, lam=0.0)
+    a = build_hopper(section, 2)
+    prepare(a)
+    a.run(int(1.0 / a.dt))
+    saved = a.state_dict()
+    b = build_hopper(section, 2)
+    b.load_state_dict(saved)
+    assert len(b.forces) == len(a.forces)
+    a.run(300)
+    b.run(300)
+    assert np.array_equal(a.state.x, b.state.x)
+
+
+@pytest.mark.parametrize("theta", [60.0, 30.0, 20.0])
+def test_inclined_hopper_is_filled_inside_its_funnel(theta: float) -> None:
+    """With sloped walls the initial fill lies inside the funnel (no grain crosses a wall,
+    none starts far above the pile), and the funnel region's area is its integral."""
+    from grainflow.scenarios.hopper import FunnelRegion
+
+    w, W = 3.0, 20.0
+    sim = build_hopper(HopperSection(n=300, width=W, orifice_width=w, theta_w=theta), 2)
+    x, r = sim.state.x, sim.state.radius
+    t = math.radians(theta)
+    slope_gap = (0.5 * w + x[:, 1] * math.tan(t) - np.abs(x[:, 0])) * math.cos(t)
+    assert np.all(slope_gap >= r - 1e-9) and np.all(np.abs(x[:, 0]) <= 0.5 * W - r + 1e-9)
+    assert x[:, 1].min() < 2.0  # the fill starts at the orifice, not above the funnel
+    region = FunnelRegion(W, w, theta, 0.0, 30.0)
+    rng = np.random.default_rng(1)
+    pts = rng.uniform([-0.5 * W, 0.0], [0.5 * W, 30.0], (200_000, 2))
+    assert region.volume() == pytest.approx(region.contains(pts).mean() * W * 30.0, rel=0.01)

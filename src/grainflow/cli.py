@@ -154,12 +154,22 @@ def study(
                                        "one (see docs/hopper_study.md for its cost).")] = False,
     scheduler: Annotated[str | None, typer.Option(
         "--scheduler", help="dask scheduler address (default: a local cluster).")] = None,
+    convention: Annotated[str, typer.Option(
+        "--convention", help="hopper: 'authors' (the second pass, on the authors' code "
+        "conventions) or 'grainflow' (the first pass, the printed seed as we read it).")]
+    = "authors",
 ) -> None:
     """Reproduce a seed study through the sweep engine and write its report.md."""
     with _errors():
         if name != "hopper":
             raise UsageError(f"study: {name!r} is not known; available: hopper")
-        from grainflow.studies.hopper_study import reproduce
+        if convention not in ("authors", "grainflow"):
+            raise UsageError(f"--convention: {convention!r} is not valid; use 'authors' or "
+                             "'grainflow'")
+        if convention == "authors":
+            from grainflow.studies.hopper_authors import reproduce_authors as reproduce
+        else:
+            from grainflow.studies.hopper_study import reproduce
 
         report = reproduce(output or Path(f"{name}_study"), reduced=not full,
                            scheduler=scheduler)

@@ -19,6 +19,8 @@ Q0 = sigma_avg^d / t0. Results are frozen dataclasses holding read-only copies o
 
 from __future__ import annotations
 
+import math
+
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -465,6 +467,7 @@ class BeverlooFit:
     covariance : (p, p) covariance of the free parameters in the order (C, k[, beta]).
     chi2, dof : sum of squared (weighted) residuals and M - p.
     x : (M,) w/sigma_avg of the data; Q, Q_err : (M,) data (Q_err NaN when not given).
+    at_bound : the parameters (``"k"``, ``"beta"``) that ended on a bound of a bounded fit.
     """
 
     C: float
@@ -480,6 +483,7 @@ class BeverlooFit:
     x: np.ndarray
     Q: np.ndarray
     Q_err: np.ndarray
+    at_bound: tuple[str, ...] = ()
 
     def predict(self, x: ArrayLike) -> np.ndarray:
         """Q from the fitted law at x = w/sigma_avg."""
@@ -517,6 +521,8 @@ def fit_beverloo(
     sigma_avg: float = 1.0,
     Q_err: ArrayLike | None = None,
     beta: float | None = None,
+    beta_bounds: tuple[float, float] | None = None,
+    k_min: float | None = None,
 ) -> BeverlooFit:
     """Fit the Beverloo law Q = C (w/sigma_avg - k)^beta (seed 003 eq. (1), Figs. 2-3).
 
@@ -535,6 +541,10 @@ def fit_beverloo(
     sigma_avg : mean grain diameter, so that x = w / sigma_avg.
     Q_err : (M,) standard errors of Q, > 0 (e.g. ``FlowRate.flow_rate_err``).
     beta : impose the exponent and fit only C and k (e.g. beta = d - 1/2).
+    beta_bounds, k_min : a bounded fit, ``beta_bounds[0] <= beta <= beta_bounds[1]`` and
+        ``k >= k_min``: how the seed's authors fitted beta(lambda) (beta <= 1.58 and k >= 0.5
+        in 2D, 1.5 <= beta <= 2.5 in 3D; PARAMETERS.md). A parameter that ends on its bound
+        is reported with the uncertainty of the local curvature; see :attr:`BeverlooFit.at_bound`.
     """
     w_arr, q_arr = _as_1d("w", w), _as_1d("Q", Q)
     if q_arr.shape != w_arr.shape:
@@ -547,6 +557,11 @@ def fit_beverloo(
         raise ValueError("Q: flow rates must be positive; drop clogged widths (Q = 0) first")
     if beta is not None and not 0 < beta <= 10:
         raise ValueError(f"beta: a fixed exponent must lie in (0, 10], got {beta}")
+    if beta is not None and beta_bounds is not None:
+        raise ValueError("beta_bounds: give a fixed beta or bounds on it, not both")
+    beta_lo, beta_hi = (1e-6, 10.0) if beta_bounds is None else map(float, beta_bounds)
+    if not 0 < beta_lo < beta_hi <= 10:
+        raise ValueError(f"beta_bounds: {beta_bounds!r}; expected 0 < lower < upper <= 10")
     n_params = 3 if beta is None else 2
     if w_arr.size <= n_params:
         raise ValueError(
@@ -565,22 +580,33 @@ def fit_beverloo(
     c0, k0, b0 = _beverloo_start(x, q_arr, weights, beta)
 
     k_max = float(x.min()) * (1.0 - 1e-9)
+    k_lo = -np.inf if k_min is None else float(k_min)
+    if not k_lo < k_max:
+        raise ValueError(f"k_min: {k_min!r} must lie below the smallest width {x.min():g}")
+    if k0 <= k_lo:  # start inside the bounds
+        k0 = k_lo + 0.01 * (k_max - k_lo)
     if beta is None:
         model = beverloo
-        p0 = [c0, k0, min(b0, 9.9)]
-        bounds = ([0.0, -np.inf, 1e-6], [np.inf, k_max, 10.0])
+        p0 = [c0, k0, float(np.clip(b0, beta_lo + 1e-9 * beta_hi, beta_hi * (1 - 1e-9)))]
+        bounds = ([0.0, k_lo, beta_lo], [np.inf, k_max, beta_hi])
     else:
         def model(xx: np.ndarray, C: float, k: float) -> np.ndarray:
             return beverloo(xx, C, k, beta)
 
         p0 = [c0, k0]
-        bounds = ([0.0, -np.inf], [np.inf, k_max])
+        bounds = ([0.0, k_lo], [np.inf, k_max])
     popt, pcov = curve_fit(
         model, x, q_arr, p0=p0, sigma=err, absolute_sigma=err is not None, bounds=bounds,
         method="trf", x_scale="jac", max_nfev=20000,
     )
     resid = (q_arr - model(x, *popt)) / (err if err is not None else 1.0)
     perr = np.sqrt(np.diag(pcov))
+    at_bound = tuple(name for name, value, lo, hi in (
+        ("k", popt[1], k_lo, np.inf), ("beta", popt[2] if beta is None else math.nan,
+                                       beta_lo if beta_bounds else -np.inf,
+                                       beta_hi if beta_bounds else np.inf))
+        if np.isclose(value, lo, rtol=1e-6, atol=1e-9) or np.isclose(value, hi, rtol=1e-6,
+                                                                      atol=1e-9))
     return BeverlooFit(
         C=float(popt[0]),
         k=float(popt[1]),
@@ -595,6 +621,7 @@ def fit_beverloo(
         x=_frozen(x),
         Q=_frozen(q_arr),
         Q_err=_frozen(err if err is not None else np.full_like(q_arr, np.nan)),
+        at_bound=at_bound,
     )
 
 

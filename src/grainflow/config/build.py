@@ -16,8 +16,8 @@ from contextlib import contextmanager
 import numpy as np
 
 from grainflow.config.regions import region_of
-from grainflow.config.schema import (ConfigError, DataFile, LatticeFill, ListFill, RandomFill,
-                                     RunConfig, SizedPopulation)
+from grainflow.config.schema import (DRAG_BOTH, ConfigError, DataFile, LatticeFill, ListFill,
+                                     RandomFill, RunConfig, SizedPopulation)
 from grainflow.engine.forces import Drag, Gravity
 from grainflow.engine.integrators import integrator_by_name
 from grainflow.engine.simulation import Simulation, TimeStepError
@@ -132,6 +132,8 @@ def build_generic(config: RunConfig) -> Simulation:
     """The ``generic`` scenario: box, particle populations, laws per type pair, forces."""
     if config.box is None:
         raise ConfigError(["box: missing; the generic scenario needs [box] with lo and hi"])
+    if config.drag is not None and config.drag_rate is not None:
+        raise ConfigError([DRAG_BOTH])  # refused on load too; this is for a config edited since
     box = config.box
     periodic = tuple(box.periodic) if box.periodic is not None else (False,) * config.dim
     state = ParticleState(config.dim, Box(np.array(box.lo), np.array(box.hi), periodic))
@@ -163,6 +165,8 @@ def build_generic(config: RunConfig) -> Simulation:
         sim.add_force(Gravity(config.gravity))
     if config.drag is not None:
         sim.add_force(Drag(np.array(config.drag)))
+    if config.drag_rate is not None:
+        sim.add_force(Drag(np.array(config.drag_rate), per_mass=True))
     return sim
 
 

@@ -558,6 +558,11 @@ class ChuteSection(_Model):
     angle: float = Field(26.0, gt=-90, lt=90, description="chute inclination in degrees")
 
 
+#: The error when both forms of the background drag are given.
+DRAG_BOTH = ("drag and drag_rate: both given; give one: drag = zeta (per grain, F = -zeta v, "
+             "e.g. '2 kg/s') or drag_rate = gamma (per unit mass, F = -gamma m v, e.g. '5 1/s')")
+
+
 class RunConfig(_Model):
     """A whole run: ``scenario`` picks the builder; see ``docs/config.md``."""
 
@@ -575,8 +580,17 @@ class RunConfig(_Model):
     gravity: vector("acceleration") | None = None
     drag: Annotated[list[quantity("damping", ge=0)], BeforeValidator(_listify)] | None = Field(
         None, description="drag coefficient zeta (F = -zeta v), one value or one per type")
+    drag_rate: Annotated[list[quantity("frequency", ge=0)], BeforeValidator(_listify)] | None = (
+        Field(None, description="drag rate gamma per unit mass, F = -gamma m v, one value or "
+                                "one per type"))
 
     _section: BaseModel | None = PrivateAttr(None)
+
+    @model_validator(mode="after")
+    def _one_drag(self) -> "RunConfig":
+        if self.drag is not None and self.drag_rate is not None:
+            raise ValueError(DRAG_BOTH)
+        return self
 
     @property
     def section(self) -> BaseModel | None:
@@ -831,7 +845,7 @@ def format_errors(err: ValidationError, root: type[BaseModel], prefix: str = "")
             if path and field and _is_model(here) and field[1] in here.model_fields:
                 lines.append(f"{path}.{msg}")  # a model validator naming one of its fields
             else:
-                lines.append(f"{path}: {msg}")
+                lines.append(f"{path}: {msg}" if path else msg)  # "": a top-level check
         else:
             msg = e["msg"]
             if msg.startswith("Input should be "):

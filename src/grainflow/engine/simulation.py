@@ -250,6 +250,11 @@ class Simulation:
         self.forces_current = False
         return force
 
+    def remove_force(self, force: Force) -> None:
+        """Take a force operation out (e.g. a lid that opens); its per-particle arrays stay."""
+        self.forces.remove(force)
+        self.forces_current = False
+
     def add_updater(self, updater: Updater | Callable[[UpdateContext], None],
                     every: int = 1) -> None:
         """Run ``updater.update(ctx)`` (or ``updater(ctx)``) every ``every`` steps, with an

@@ -111,7 +111,7 @@ def _load_plugins() -> None:
 
 
 _GENERIC_SECTIONS = frozenset({"box", "particles", "contact", "walls", "gravity", "drag",
-                               "tethers", "insert", "delete"})
+                               "drag_rate", "tethers", "insert", "delete"})
 
 register(Scenario(
     "generic", "grainflow.config.build:build_generic", uses=_GENERIC_SECTIONS,

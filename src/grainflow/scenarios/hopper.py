@@ -33,8 +33,9 @@ infinite cylinder of diameter W (default 30 sigma_s = 25 sigma_avg) with a flat 
 circular orifice of diameter w (:class:`~grainflow.walls.PlateWithHole`).
 
 Initialisation (seed Sec. 2.4): grains are placed at random without overlap (random
-sequential addition at packing fraction ``fill_fraction``) in the hopper above the bottom,
-with zero velocity; FIRE (``run.minimize = true``, gravity off) removes any overlap left
+sequential addition at packing fraction ``fill_fraction``) in the hopper above the bottom
+(with sloped walls, inside the funnel from the orifice up: :class:`FunnelRegion`), with zero
+velocity; FIRE (``run.minimize = true``, gravity off) removes any overlap left
 (with walls included); then gravity is on at t = 0. Continuous flow and crossing events:
 :mod:`grainflow.scenarios.hopper_reinsertion`.
 
@@ -49,13 +50,15 @@ over every interaction). docs/hopper_study.md shows that halving it leaves Q unc
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 
 from grainflow.scenarios import Scenario, register
 from grainflow.scenarios.hopper_reinsertion import HopperReinsertion
+from grainflow.scenarios.hopper_units import AUTHORS_CODE
 from grainflow.engine.minimize import relax
 
 if TYPE_CHECKING:
@@ -76,21 +79,49 @@ LIMIT_ZETA = 1.0 / math.sqrt(10.0)
 #: :class:`HopperSection` ``drag_factor`` and docs/hopper_study.md). 16 = N_v, the number of
 #: vertices of the seed's DP particles, each of which feels -zeta v (seed eq. 11).
 DRAG_FACTOR = 16.0
+#: Mass of a grain of diameter sigma_avg (rho = 1): pi/4 in 2D, pi/6 in 3D.
+MEAN_GRAIN_MASS = {2: math.pi / 4.0, 3: math.pi / 6.0}
 #: Particle types: 0 small, 1 large, 2 walls.
 WALL_TYPE = 2
 #: File of a run's crossing events (read by :mod:`grainflow.studies.hopper_results`).
 EVENTS = "events.csv"
 
 
+Convention = Literal["grainflow", "authors"]
+
+#: What ``convention`` sets for every SP-model option left unset (None) in the table:
+#: today's reading of the printed seed, or the authors' public code (docs/hopper_study.md,
+#: :mod:`grainflow.scenarios.hopper_units`).
+CONVENTIONS: dict[str, dict[str, Any]] = {
+    "grainflow": {"friction_on": "full", "drag_on": "grain", "stiffness": "constant",
+                  "lambda_path": "interpolate", "reinsertion": "pile", "count_at": "orifice",
+                  "reinsert_depth": 2.0, "lid_time": 0.0, "E_sp": 100.0, "E_w": 1.0e4,
+                  "mu_limit": LIMIT_MU, "drag_limit": None, "drag_factor": DRAG_FACTOR},
+    "authors": {"friction_on": "tangential", "drag_on": "mass", "stiffness": "diameter",
+                "lambda_path": "authors", "reinsertion": "lanes", "count_at": "reinsertion",
+                "reinsert_depth": AUTHORS_CODE.count_depth, "lid_time": AUTHORS_CODE.lid_time,
+                "E_sp": AUTHORS_CODE.units.pair_force_scale(AUTHORS_CODE.spK),
+                "E_w": AUTHORS_CODE.units.wall_energy(AUTHORS_CODE.K_w),
+                "mu_limit": AUTHORS_CODE.units.mu(AUTHORS_CODE.mu_limit), "drag_limit": None,
+                "drag_factor": 1.0},
+}
+
+
 class HopperSection(BaseModel):
     """The ``[hopper]`` table (seed units: sigma_avg = g = rho = 1, see module docstring).
 
     Counts are strict integers (a string such as ``"1600"`` is refused); every number but
-    ``lam`` is finite (``E_sp = inf`` is refused here, naming ``hopper.E_sp``).
+    ``lam`` is finite (``E_sp = inf`` is refused here, naming ``hopper.E_sp``). The SP-model
+    options left unset take the values of ``convention`` (:data:`CONVENTIONS`);
+    :meth:`resolved` gives the table with every option filled in.
     """
 
     model_config = ConfigDict(extra="forbid", validate_default=True)
 
+    convention: Convention = Field(
+        "grainflow", description="defaults of the SP-model options below: 'grainflow' (the "
+        "printed seed as we read it) or 'authors' (the authors' public code, converted to "
+        "these units; docs/hopper_study.md)")
     n: StrictInt | None = Field(None, ge=2,
                                 description="number of grains; default 1600 (2D), 6400 (3D)")
     orifice_width: float = Field(6.0, gt=0, allow_inf_nan=False,
@@ -99,32 +130,72 @@ class HopperSection(BaseModel):
                                 description="W / sigma_avg: side-wall separation (2D, default "
                                 "50 = 60 sigma_s) or cylinder diameter (3D, 25)")
     theta_w: float = Field(90.0, gt=0, le=90, description="2D bottom angle in degrees (90 flat)")
-    E_sp: float = Field(100.0, gt=0, allow_inf_nan=False,
-                        description="pair stiffness eps_sp/(g rho sigma_avg^(d+1))")
-    E_w: float = Field(1.0e4, gt=0, allow_inf_nan=False,
-                       description="wall stiffness eps_w/(g rho sigma_avg^(d+1))")
+    E_sp: float | None = Field(None, gt=0, allow_inf_nan=False,
+                               description="pair stiffness eps_sp/(g rho sigma_avg^(d+1)) (of a "
+                               "pair of mean diameter sigma_avg with stiffness = 'diameter'); "
+                               "default 100 (grainflow), 139 (authors)")
+    E_w: float | None = Field(None, gt=0, allow_inf_nan=False,
+                              description="wall stiffness eps_w/(g rho sigma_avg^(d+1)) (of a "
+                              "grain of diameter sigma_avg with stiffness = 'diameter'); "
+                              "default 1e4 (grainflow), 694 (authors)")
+    stiffness: Literal["constant", "diameter"] | None = Field(
+        None, description="'constant': one eps for every pair and one for every grain on a "
+        "wall (seed eq. 4); 'diameter': eps_mn = E_sp sigma_mn, eps_w = E_w sigma_m, the "
+        "authors' code (force E_sp (1 - r/sigma_mn) at every size)")
     lam: float = Field(math.inf, ge=0, description="lambda = zeta/mu; 0 and inf are the "
                        "seed's limits (write inf in TOML)")
+    mu_limit: float | None = Field(None, gt=0, allow_inf_nan=False, description="mu/mu0 at "
+                                   "lam = 0; default 10 sqrt(10) (grainflow), 8.51 = the "
+                                   "code's 10 (authors)")
+    drag_limit: float | None = Field(None, gt=0, allow_inf_nan=False, description="drag at "
+                                     "lam = inf, in the unit of drag_on (zeta per grain, "
+                                     "gamma per unit mass); default zeta = 1/sqrt(10) "
+                                     "(grainflow), gamma = 1.96 = the code's b = 0.1 (authors)")
+    lambda_path: Literal["interpolate", "authors"] | None = Field(
+        None, description="how a finite lam sets mu and the drag: 'interpolate' (both change, "
+        "zeta/mu = lam) or 'authors' (mu at its limit while the drag rises to its limit, then "
+        "the drag at its limit while mu falls)")
     zeta: float | None = Field(None, ge=0, allow_inf_nan=False,
-                               description="explicit drag (overrides lam)")
-    drag_factor: float = Field(DRAG_FACTOR, gt=0, allow_inf_nan=False,
-                               description="drag force on a grain = "
-                               "-drag_factor * zeta * v. Seed eq. (5) is illegible; 16 = N_v "
+                               description="explicit drag (overrides lam): per grain with "
+                               "drag_on = 'grain', the rate gamma per unit mass with 'mass'")
+    drag_on: Literal["grain", "mass"] | None = Field(
+        None, description="'grain': F = -drag_factor zeta v; 'mass': F = -gamma M v with the "
+        "rate gamma (the authors' code); lam uses zeta = gamma M of a sigma_avg grain")
+    drag_factor: float | None = Field(None, gt=0, allow_inf_nan=False,
+                               description="drag_on = 'grain' only: drag force on a grain = "
+                               "-drag_factor * zeta * v; default 16 (grainflow), 1 (authors). "
+                               "Seed eq. (5) is illegible; 16 = N_v "
                                "(the DP model's per-vertex drag, eq. 11, summed over its 16 "
                                "vertices) reproduces the seed's flow rates, 1 is a literal "
                                "-zeta v (docs/hopper_study.md)")
     mu: float | None = Field(None, ge=0, allow_inf_nan=False,
                              description="explicit kinetic friction (overrides lam)")
+    friction_on: Literal["full", "tangential"] | None = Field(
+        None, description="kinetic friction on the 'full' relative velocity (seed eq. 6) or "
+        "its 'tangential' part (the authors' code)")
     fill_fraction: float = Field(0.45, gt=0, lt=0.6, description="packing fraction of the "
                                  "initial random fill (2D; 3D uses 0.6 of it)")
-    reinsert_depth: float = Field(2.0, gt=0, allow_inf_nan=False,
-                                  description="reinsert after falling this many own "
-                                  "diameters below the orifice (seed: 2)")
+    lid_time: float | None = Field(None, ge=0, allow_inf_nan=False,
+                                   description="the orifice is closed by a lid until this "
+                                   "time (t0); default 0 (grainflow), 0.31 = 1200 code steps "
+                                   "(authors)")
+    reinsertion: Literal["pile", "lanes"] | None = Field(
+        None, description="where a grain goes back: 'pile' (a random lateral position, on a "
+        "bulk grain: reinsert_bulk_contacts) or 'lanes' (28 fixed lanes in turn, 1 sigma_s "
+        "above the lane's highest grain: the authors' code)")
+    count_at: Literal["orifice", "reinsertion"] | None = Field(
+        None, description="when a grain is counted: 'orifice' (when it first crosses the "
+        "orifice plane) or 'reinsertion' (when it is moved back, reinsert_depth diameters "
+        "past the orifice: the authors' code)")
+    reinsert_depth: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                         description="reinsert after falling this many own "
+                                         "diameters below the orifice; default 2 (seed), 2.5 "
+                                         "(authors)")
     reinsert_every: StrictInt = Field(10, ge=1, description="steps between crossing checks")
     reinsert_bulk_contacts: StrictInt | None = Field(
-        None, ge=0, description="a reinserted grain's partner must touch or nearly touch this "
-        "many grains (a 'bulk particle' of the seed); default d + 1; 0: the highest grain of "
-        "the column (docs/hopper_study.md)")
+        None, ge=0, description="reinsertion = 'pile': a reinserted grain's partner must touch "
+        "or nearly touch this many grains (a 'bulk particle' of the seed); default d + 1; 0: "
+        "the highest grain of the column (docs/hopper_study.md)")
     dt_fraction: float = Field(0.05, gt=0, le=0.25, description="dt = dt_fraction * t_c (pairs "
                                "and walls) unless run.dt is given")
 
@@ -135,20 +206,74 @@ class HopperSection(BaseModel):
         if self.width is not None and not self.orifice_width < self.width:
             raise ValueError(f"orifice_width: {self.orifice_width} must be below the hopper "
                              f"width {self.width}")
+        chosen = self.resolved_options()
+        if chosen["drag_on"] == "mass" and self.drag_factor is not None:
+            raise ValueError("drag_factor: applies to drag_on = 'grain' only; with drag_on = "
+                             "'mass' give the rate gamma through zeta or lam")
+        if chosen["reinsertion"] == "lanes" and self.reinsert_bulk_contacts is not None:
+            raise ValueError("reinsert_bulk_contacts: applies to reinsertion = 'pile' only "
+                             "(the lanes rule places a grain above the lane's highest grain)")
         return self
 
+    def resolved_options(self) -> dict[str, Any]:
+        """Every option of :data:`CONVENTIONS`: the table's value, or the convention's."""
+        defaults = CONVENTIONS[self.convention]
+        return {key: default if getattr(self, key) is None else getattr(self, key)
+                for key, default in defaults.items()}
 
-def dissipation(section: HopperSection) -> tuple[float, float]:
-    """``(zeta, mu)`` from ``section`` (explicit values, or lambda as in the module docs)."""
+
+@dataclass(frozen=True)
+class Dissipation:
+    """Kinetic friction ``mu`` and drag of a hopper run: ``drag`` is zeta (the per-grain
+    coefficient, before ``drag_factor``) or the rate gamma per unit mass (``per_mass``)."""
+
+    mu: float
+    drag: float
+    per_mass: bool
+
+
+def _limits(section: HopperSection, options: dict[str, Any], dim: int) -> tuple[float, float]:
+    """``(mu at lambda -> 0, drag at lambda -> inf)``, the drag in the unit of ``drag_on``."""
+    if options["drag_limit"] is not None:
+        return options["mu_limit"], options["drag_limit"]
+    if section.convention == "authors":
+        gamma = AUTHORS_CODE.units.gamma(AUTHORS_CODE.b_limit)
+        drag = gamma if options["drag_on"] == "mass" else gamma * MEAN_GRAIN_MASS[dim]
+    else:
+        drag = LIMIT_ZETA / MEAN_GRAIN_MASS[dim] if options["drag_on"] == "mass" else LIMIT_ZETA
+    return options["mu_limit"], drag
+
+
+def dissipation(section: HopperSection, dim: int = 2) -> Dissipation:
+    """Friction and drag of ``section``: explicit values, or lambda along ``lambda_path``.
+
+    lambda = zeta/mu with zeta the per-grain drag coefficient of a grain of diameter
+    sigma_avg (``gamma M_avg`` for ``drag_on = "mass"``, M_avg = pi/4 in 2D, pi/6 in 3D). With
+    mu_l and zeta_l the two limits and lambda* = zeta_l/mu_l:
+
+    * ``"interpolate"``: mu = mu_l/(1 + s), zeta = zeta_l s/(1 + s), s = lambda/lambda*;
+    * ``"authors"`` (their lambda sweep, PARAMETERS.md): mu = mu_l, zeta = lambda mu_l for
+      lambda <= lambda*; zeta = zeta_l, mu = zeta_l/lambda above.
+    """
+    options = section.resolved_options()
+    per_mass = options["drag_on"] == "mass"
     if section.zeta is not None and section.mu is not None:
-        return section.zeta, section.mu
+        return Dissipation(section.mu, section.zeta, per_mass)
+    mu_l, drag_l = _limits(section, options, dim)
+    to_zeta = MEAN_GRAIN_MASS[dim] if per_mass else 1.0  # drag value -> zeta of a sigma_avg grain
+    zeta_l = drag_l * to_zeta
     lam = section.lam
     if lam == 0.0:
-        return 0.0, LIMIT_MU
+        return Dissipation(mu_l, 0.0, per_mass)
     if math.isinf(lam):
-        return LIMIT_ZETA, 0.0
-    s = lam / (LIMIT_ZETA / LIMIT_MU)
-    return LIMIT_ZETA * s / (1.0 + s), LIMIT_MU / (1.0 + s)
+        return Dissipation(0.0, drag_l, per_mass)
+    lam_star = zeta_l / mu_l
+    if options["lambda_path"] == "authors":
+        if lam <= lam_star:
+            return Dissipation(mu_l, lam * mu_l / to_zeta, per_mass)
+        return Dissipation(zeta_l / lam, drag_l, per_mass)
+    s = lam / lam_star
+    return Dissipation(mu_l / (1.0 + s), drag_l * s / (1.0 + s), per_mass)
 
 
 def _defaults(section: HopperSection, dim: int) -> tuple[int, float]:
@@ -192,14 +317,14 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     total = float(particle_volume(radii, dim).sum())
     w = section.orifice_width
     if dim == 2:
-        rise = 0.0 if section.theta_w == 90.0 else 0.5 * (width - w) / math.tan(
-            math.radians(section.theta_w))
-        fill_height = total / (fill * (width - 2 * r_max))
-        bottom = rise + r_max
-        top = bottom + fill_height
+        if section.theta_w == 90.0:
+            top = r_max + total / (fill * (width - 2 * r_max))
+            region = BoxRegion((-0.5 * width + r_max, r_max), (0.5 * width - r_max, top))
+        else:  # fill the funnel itself: a fill above it would fall onto it from far up
+            region = _funnel_fill(width, w, section.theta_w, r_max, total / fill)
+            top = float(region.y_hi)
         walls = Hopper2D(W=width, theta_w_deg=section.theta_w, orifice_w=w, y_bottom=0.0,
                          height=top + 4.0 * r_max).segments()
-        region = BoxRegion((-0.5 * width + r_max, bottom), (0.5 * width - r_max, top))
         box = Box(lo=np.array([-0.5 * width, -10.0]), hi=np.array([0.5 * width, top]),
                   periodic=(False, False))
     else:
@@ -215,13 +340,17 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     state = ParticleState(dim, box)
     state.add_particles(x, r, density=1.0, type=(r > 0.5).astype(np.int32))  # 0 small, 1 large
 
-    zeta, mu = dissipation(section)
+    options = section.resolved_options()
+    friction = dissipation(section, dim)
+    scales = options["stiffness"]
+    # with 'diameter' the wall partner's sigma is r_m, so eps_w,m = epsilon r_m = E_w sigma_m
+    wall_epsilon = options["E_w"] * (2.0 if scales == "diameter" else 1.0)
     law = SoftLaw(n_types=3)
     for ti, tj in ((0, 0), (0, 1), (1, 1)):
-        law.set_pair(ti, tj, epsilon=section.E_sp, mu_k=mu)
-    for ti in (0, 1):
-        law.set_pair(ti, WALL_TYPE, epsilon=section.E_w, mu_k=0.0)
-    law.set_pair(WALL_TYPE, WALL_TYPE, epsilon=section.E_w, mu_k=0.0)
+        law.set_pair(ti, tj, epsilon=options["E_sp"], epsilon_scales=scales, mu_k=friction.mu,
+                     kinetic_on=options["friction_on"])
+    for ti in (0, 1, WALL_TYPE):
+        law.set_pair(ti, WALL_TYPE, epsilon=wall_epsilon, epsilon_scales=scales, mu_k=0.0)
     sim = Simulation(state, 1.0, law, skin=skin, sort_every=sort_every,
                      check_every=check_every, max_overlap_fraction=max_overlap_fraction,
                      seed=seed)
@@ -229,16 +358,130 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     g = np.zeros(dim)
     g[-1] = -1.0
     sim.add_force(Gravity(g))
-    if zeta > 0:
-        sim.add_force(Drag(section.drag_factor * zeta))
+    if friction.drag > 0:
+        if friction.per_mass:
+            sim.add_force(Drag(friction.drag, per_mass=True))
+        else:
+            sim.add_force(Drag(options["drag_factor"] * friction.drag))
+    lid = None
+    if options["lid_time"] > 0:
+        lid = sim.add_force(WallForce([_lid_wall(dim, w)], law, WALL_TYPE))
     sim.dt = dt if dt is not None else sim.stable_time_step(section.dt_fraction)
     bulk_contacts = section.reinsert_bulk_contacts
-    updater = HopperReinsertion(dim, 0.0, np.zeros(dim - 1), width,
-                                depth=section.reinsert_depth,
-                                bulk_contacts=dim + 1 if bulk_contacts is None else bulk_contacts)
+    lanes = options["reinsertion"] == "lanes"
+    updater = HopperReinsertion(
+        dim, 0.0, np.zeros(dim - 1), width, depth=options["reinsert_depth"],
+        bulk_contacts=0 if lanes else (dim + 1 if bulk_contacts is None else bulk_contacts),
+        count_at=options["count_at"], placement=options["reinsertion"],
+        lanes=AUTHORS_CODE.lanes, lift=SIGMA_SMALL, lane_reach=1.5 * SIGMA_SMALL,
+        inside=_inside_funnel(width, w, section.theta_w) if dim == 2 else None)
     updater.setup_state(sim.context)
     sim.add_updater(updater, section.reinsert_every)
+    if lid is not None:
+        sim.add_updater(HopperLid(sim, lid, options["lid_time"]),
+                        max(1, math.ceil(options["lid_time"] / sim.dt)))
     return sim
+
+
+def _lid_wall(dim: int, w: float) -> Any:
+    """The lid over the orifice: a segment one orifice width wider than the opening (2D), or
+    the plane of the base (3D)."""
+    from grainflow.walls import Plane, Segment
+
+    if dim == 2:
+        return Segment((-w, 0.0, 0.0), (w, 0.0, 0.0))
+    return Plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+
+
+class HopperLid:
+    """Removes the lid over the orifice at the first check at or after ``open_time`` (the
+    authors' code keeps the orifice closed for its first 1200 steps). A checkpoint written
+    after the opening resumes without the lid (:meth:`load_state_dict`)."""
+
+    def __init__(self, sim: "Simulation", lid: Any, open_time: float) -> None:
+        self.sim = sim
+        self.lid = lid
+        self.open_time = float(open_time)
+        self.opened = False
+
+    def update(self, ctx: Any) -> None:
+        if not self.opened and ctx.time >= self.open_time:
+            self._open()
+
+    def _open(self) -> None:
+        self.sim.remove_force(self.lid)
+        self.opened = True
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"opened": self.opened}
+
+    def load_state_dict(self, data: dict[str, Any]) -> None:
+        if bool(data.get("opened", False)) and not self.opened:
+            self._open()
+
+
+@dataclass(frozen=True)
+class FunnelRegion:
+    """The inside of a 2D hopper with sloped walls (a :class:`~grainflow.insertion.Region`):
+    side walls at x = +-W/2, walls at ``theta_deg`` from the vertical (90: a flat bottom, as
+    :class:`~grainflow.walls.Hopper2D`) rising from the orifice lips (x = +-w/2, y = 0),
+    between heights ``y_lo`` and ``y_hi``; ``margin`` is a distance from every wall
+    (perpendicular to the sloped ones)."""
+
+    W: float
+    w: float
+    theta_deg: float
+    y_lo: float
+    y_hi: float
+    dim: int = 2
+
+    def _half_width(self, y: np.ndarray | float, margin: float) -> np.ndarray:
+        theta = math.radians(self.theta_deg)
+        slope = 0.5 * self.w + np.asarray(y, dtype=float) * math.tan(theta) - margin / math.cos(
+            theta)
+        return np.minimum(0.5 * self.W - margin, slope)
+
+    def contains(self, x: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        x = np.atleast_2d(x)
+        y = x[:, 1]
+        return ((np.abs(x[:, 0]) <= self._half_width(y, margin)) & (y >= self.y_lo + margin)
+                & (y <= self.y_hi - margin))
+
+    def volume(self) -> float:
+        """The area (trapezoidal rule on 2001 heights; the width is piecewise linear)."""
+        y = np.linspace(self.y_lo, self.y_hi, 2001)
+        return float(np.trapezoid(2.0 * np.clip(self._half_width(y, 0.0), 0.0, None), y))
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return (np.array([-0.5 * self.W, self.y_lo]), np.array([0.5 * self.W, self.y_hi]))
+
+
+def _inside_funnel(W: float, w: float, theta_deg: float) -> Any:
+    """For reinsertion: whether a grain of radius r at x lies inside the funnel, clear of its
+    walls (None for a flat bottom: every position above the pile does)."""
+    if theta_deg == 90.0:
+        return None
+    region = FunnelRegion(W, w, theta_deg, 0.0, math.inf)
+    return lambda x, r: bool(region.contains(x[None, :], margin=r)[0])
+
+
+def _funnel_fill(W: float, w: float, theta_deg: float, r_max: float,
+                 area: float) -> FunnelRegion:
+    """The funnel region from y = r_max up to the height that holds ``area`` (bisection on
+    the area of the region inset by ``r_max``, where centres may go)."""
+
+    def inset_area(top: float) -> float:
+        region = FunnelRegion(W, w, theta_deg, r_max, top)
+        y = np.linspace(r_max, top, 2001)
+        return float(np.trapezoid(2.0 * np.clip(region._half_width(y, r_max), 0.0, None), y))
+
+    lo, hi = r_max, r_max + 1.0
+    while inset_area(hi) < area:
+        hi = r_max + 2.0 * (hi - r_max)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if inset_area(mid) < area else (lo, mid)
+    return FunnelRegion(W, w, theta_deg, r_max, hi)
 
 
 def hopper_updater(sim: "Simulation") -> HopperReinsertion:

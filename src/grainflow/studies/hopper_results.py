@@ -2,13 +2,15 @@
 
 :func:`flow_summary` is the sweep analysis of the hopper study (``analyses =
 ["grainflow.studies.hopper_results:flow_summary"]``); :func:`read_events` gives a run's
-orifice-crossing events. Both read files the runner and the demo write (``events.csv``,
+orifice-crossing events; :func:`collect_series` gathers a finished sweep's flow rates into
+Q(w) series for the studies' fits. Both read files the runner and the demo write (``events.csv``,
 ``checkpoint.npz``, ``config.toml``, ``summary.json``, ``frames.h5``), so they live here,
 above the scenario (:mod:`grainflow.scenarios.hopper`), which never reads run directories.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,7 +22,48 @@ from grainflow.scenarios.hopper_reinsertion import grain_size, read_events_csv
 if TYPE_CHECKING:
     from grainflow.analysis.hopper import FlowRate
 
-__all__ = ["flow_summary", "read_events"]
+__all__ = ["Series", "collect_series", "flow_summary", "fmt", "read_events"]
+
+
+@dataclass
+class Series:
+    """Flow rates of one set of swept parameters at several orifice widths."""
+
+    w: list[float] = field(default_factory=list)
+    Q: list[float] = field(default_factory=list)
+    Q_err: list[float] = field(default_factory=list)
+    cpu: float = 0.0
+    rundirs: list[str] = field(default_factory=list)
+
+
+def collect_series(sweepdir: str | Path, keys: tuple[str, ...] = ("hopper.lam",),
+                   fixed: dict[str, float] | None = None) -> dict[tuple, Series]:
+    """The finished points of a sweep as Q(w) series, keyed by the values of the swept
+    fields ``keys``: a field the sweep does not vary takes its value from ``fixed``, or None.
+    Points with Q = 0 (clogged) count in the series' cost but carry no flow rate."""
+    from grainflow.sweep import Catalog
+
+    sweepdir = Path(sweepdir)
+    series: dict[tuple, Series] = {}
+    with Catalog.in_dir(sweepdir) as catalog:
+        for row in catalog.rows("done"):
+            p = row.params
+            key = tuple(float(p[k]) if k in p else (fixed or {}).get(k) for k in keys)
+            s = series.setdefault(key, Series())
+            if row.summary.get("Q", 0.0) > 0:
+                s.w.append(float(p["hopper.orifice_width"]))
+                s.Q.append(row.summary["Q"])
+                s.Q_err.append(max(row.summary["Q_err"], 1e-12))
+                s.rundirs.append(str(sweepdir / row.rundir))  # catalog paths: sweep-relative
+            s.cpu += float(row.wall_time or 0.0)
+    return series
+
+
+def fmt(value: float | None, err: float | None = None) -> str:
+    """A number (and its error) for a report table; "n/a" when missing or not finite."""
+    if value is None or not np.isfinite(value):
+        return "n/a"
+    return f"{value:.3g}" if err is None else f"{value:.3g} ± {err:.2g}"
 
 
 def read_events(rundir: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from grainflow.scenarios.hopper import SIGMA_SMALL
+from grainflow.studies.hopper_results import Series, collect_series, fmt
 
 
 @dataclass(frozen=True)
@@ -93,32 +94,11 @@ def sweep_specs(plan: StudyPlan) -> dict[str, Any]:
             for name, spec in raw.items()}
 
 
-@dataclass
-class _Series:
-    w: list[float] = field(default_factory=list)
-    Q: list[float] = field(default_factory=list)
-    Q_err: list[float] = field(default_factory=list)
-    cpu: float = 0.0
-    rundirs: list[str] = field(default_factory=list)
+def _collect(sweepdir: Path) -> dict[float, Series]:
+    return {key[0]: series for key, series in collect_series(sweepdir).items()}
 
 
-def _collect(sweepdir: Path) -> dict[float, _Series]:
-    from grainflow.sweep import Catalog
-
-    series: dict[float, _Series] = {}
-    with Catalog.in_dir(sweepdir) as catalog:
-        for row in catalog.rows("done"):
-            s = series.setdefault(float(row.params["hopper.lam"]), _Series())
-            if row.summary.get("Q", 0.0) > 0:
-                s.w.append(float(row.params["hopper.orifice_width"]))
-                s.Q.append(row.summary["Q"])
-                s.Q_err.append(max(row.summary["Q_err"], 1e-12))
-                s.rundirs.append(str(sweepdir / row.rundir))  # catalog paths: sweep-relative
-            s.cpu += float(row.wall_time or 0.0)
-    return series
-
-
-def _fits(series: dict[float, _Series]) -> dict[float, Any]:
+def _fits(series: dict[float, Series]) -> dict[float, Any]:
     from grainflow.analysis.hopper import fit_beverloo
 
     fits = {}
@@ -130,7 +110,7 @@ def _fits(series: dict[float, _Series]) -> dict[float, Any]:
     return fits
 
 
-def _profiles(series: _Series, dim: int) -> tuple[list[Any], list[float]]:
+def _profiles(series: Series, dim: int) -> tuple[list[Any], list[float]]:
     from grainflow.analysis.coarse_grain import centreline_velocity_profile_from_frames
     from grainflow.io.h5md import read_frames
 
@@ -148,12 +128,6 @@ def _profiles(series: _Series, dim: int) -> tuple[list[Any], list[float]]:
     return profiles, widths
 
 
-def _fmt(value: float, err: float | None = None) -> str:
-    if value is None or not np.isfinite(value):
-        return "n/a"
-    return f"{value:.3g}" if err is None else f"{value:.3g} ± {err:.2g}"
-
-
 def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
               n_workers: int | None = None) -> Path:
     """Run (or continue) the hopper study into ``out_dir`` and write ``out_dir/report.md``."""
@@ -168,7 +142,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     plan = REDUCED if reduced else FULL
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    results: dict[str, dict[float, _Series]] = {}
+    results: dict[str, dict[float, Series]] = {}
     for name, spec in sweep_specs(plan).items():
         run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress="plain")
         results[name] = _collect(out / name)
@@ -205,8 +179,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     def row(label: str, key: tuple, fit_set: str, attr: str) -> None:
         _, dim, lam = key
         fit = fits[fit_set].get(lam)
-        ours = _fmt(getattr(fit, attr), getattr(fit, f"{attr}_err")) if fit else "not run/fit"
-        cost = results[fit_set].get(lam, _Series()).cpu
+        ours = fmt(getattr(fit, attr), getattr(fit, f"{attr}_err")) if fit else "not run/fit"
+        cost = results[fit_set].get(lam, Series()).cpu
         lines.append(f"| {label} | {SEED.get(key, 'n/a')} | {ours} | {cost:.0f} |")
 
     row("2D β, λ→0", ("beta", 2, 0.0), "q2d", "beta")
@@ -217,16 +191,16 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         row(f"hard-particle k, λ={lam:g}", ("k", 2, lam), "hard2d", "k")
         row(f"hard-particle C, λ={lam:g}", ("C", 2, lam), "hard2d", "C")
     lines.append(f"| 2D λ_c | 0.05 | "
-                 f"{_fmt(sigmoid.lambda_c, sigmoid.lambda_c_err) if sigmoid else 'not fit'} | |")
+                 f"{fmt(sigmoid.lambda_c, sigmoid.lambda_c_err) if sigmoid else 'not fit'} | |")
     lines += ["", "All Beverloo fits Q = C (w - k)^beta (fit uncertainties, 1 sigma):", "",
               "| sweep | λ | widths | C | k | β | χ²/dof |", "|---|---|---|---|---|---|---|"]
     for name, series_fits in fits.items():
         for lam, fit in series_fits.items():
             widths = ", ".join(f"{w:g}" for w in fit.x)
             chi = fit.chi2 / fit.dof if fit.dof > 0 else float("nan")
-            lines.append(f"| {name} | {lam:g} | {widths} | {_fmt(fit.C, fit.C_err)} | "
-                         f"{_fmt(fit.k, fit.k_err)} | {_fmt(fit.beta, fit.beta_err)} | "
-                         f"{_fmt(chi)} |")
+            lines.append(f"| {name} | {lam:g} | {widths} | {fmt(fit.C, fit.C_err)} | "
+                         f"{fmt(fit.k, fit.k_err)} | {fmt(fit.beta, fit.beta_err)} | "
+                         f"{fmt(chi)} |")
     lines += ["", "Measured flow rates (area/volume per t0, steady window by MSER):", "",
               "| sweep | λ | w | Q | ± |", "|---|---|---|---|---|"]
     for name, series in results.items():
