@@ -253,10 +253,143 @@ def _chi(fit: Any) -> str:
     return fmt(fit.chi2 / fit.dof) if fit is not None and fit.dof > 0 else "–"
 
 
+def _key_order(item: tuple[tuple, Any]) -> tuple:
+    return tuple(-1 if v is None else v for v in item[0])
+
+
+def _arrow(lam: float) -> str:
+    return "0" if lam == 0 else "∞"
+
+
+def _seed_c(c: float) -> str:
+    """A seed C as printed and in our units, read both ways (see :data:`C_SCALE`)."""
+    return f"{c} ({c * C_SCALE:.2f} \\| {c * C_SCALE_PRINTED_T0:.2f})"
+
+
+def _figures(out: Path, fits: dict, results: dict,
+             dims: dict[str, int]) -> list[str]:
+    """Q(w) with the free fits per sweep, two snapshots and beta(lambda)."""
+    from grainflow.plotting.hopper_plots import plot_beta_sigmoid, plot_beverloo
+
+    lines = []
+    for name, dim in dims.items():
+        chosen = [(key, f["free"]) for key, f in fits.get(name, {}).items() if "free" in f]
+        if name in PROBES or not chosen:
+            continue
+        labels = [", ".join(p for p in (f"λ = {k[0]:g}", f"E_sp = {k[1]:g}" if k[1] else "",
+                                        f"θ_w = {k[2]:g}" if k[2] else "") if p)
+                  for k, _ in chosen]
+        plot_beverloo([f for _, f in chosen], out / f"{name}_beverloo.png", dim=dim,
+                      labels=labels)
+        lines.append(f"![Q(w) {name}]({name}_beverloo.png)")
+    lines.append("")
+    for lam, label in ((0.0, "friction limit"), (math.inf, "drag limit")):
+        ser = results["q2d"].get((lam, None, None))
+        if ser and ser.rundirs:
+            final = Path(ser.rundirs[int(np.argmax(ser.w))]) / "final.png"
+            if final.is_file():
+                lines.append(f"![{label}, w = {max(ser.w):g}]({final.relative_to(out)})")
+    sig = _sigmoids({key[0]: f for key, f in fits["q2d"].items()}, 2)
+    if "free" in sig:
+        plot_beta_sigmoid(sig["free"], out / "beta_lambda.png")
+        lines.append("![beta(lambda), free fits](beta_lambda.png)")
+    return lines
+
+
+def _seed_table(plan: AuthorsPlan, fits: dict) -> list[str]:
+    """Every seed number with the free, fixed-beta and bounded fits side by side."""
+    lines = ["", "## Seed numbers, three fits side by side", "",
+             "| quantity | seed | free | beta fixed | bounded (paper) |", "|---|---|---|---|---|"]
+
+    def row(label: str, name: str, lam: float, attr: str, seed: Any) -> None:
+        f = fits.get(name, {}).get((lam, None, None), {})
+        lines.append(f"| {label} | {seed} | {_cell(f.get('free'), attr)} | "
+                     f"{_cell(f.get('fixed'), attr)} | {_cell(f.get('bounded'), attr)} |")
+
+    for dim, name in ((2, "q2d"), (3, "q3d")):
+        for lam in (0.0, math.inf):
+            row(f"{dim}D β, λ→{_arrow(lam)}", name, lam, "beta", SEED[("beta", dim, lam)])
+    for lam in (0.0, math.inf):
+        row(f"C, λ→{_arrow(lam)} (E_sp = 139)", "q2d", lam, "C",
+            _seed_c(0.15 if lam == 0 else 0.42))
+    for E in plan.hard_E_sp:
+        for lam in (0.0, math.inf):
+            for attr in ("beta", "k"):
+                row(f"hard {attr}, λ→{_arrow(lam)}, E_sp = {E:g}", hard_name(E), lam, attr,
+                    SEED[(attr, 2, lam)])
+            row(f"hard C, λ→{_arrow(lam)}, E_sp = {E:g}", hard_name(E), lam, "C",
+                _seed_c(SEED[("C", 2, lam)]))
+    for dim, name, seed in ((2, "q2d", 0.05), (3, "q3d", 0.07)):
+        sigmoids = _sigmoids({key[0]: f for key, f in fits.get(name, {}).items()}, dim)
+        for kind in ("free", "bounded"):
+            s = sigmoids.get(kind)
+            lines.append(f"| {dim}D λ_c from the {kind} betas | {seed} | "
+                         f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
+    for theta in plan.theta_w:
+        sigmoids = _sigmoids({key[0]: f for key, f in fits.get("theta2d", {}).items()
+                              if key[2] == theta}, 2)
+        for kind in ("free", "bounded"):
+            s = sigmoids.get(kind)
+            lines.append(f"| λ_c at θ_w = {theta:g}° ({kind} betas) | falls to ~6e-3 (OCR "
+                         f"'6x10^?') | {fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} "
+                         "| | |")
+    return lines
+
+
+def _probe_table(plan: AuthorsPlan, fits: dict, results: dict) -> list[str]:
+    """The friction limit of the study, its probes and the hard-particle limit."""
+    lines = ["", "## What moves beta at the friction limit (lambda = 0)", "",
+             "| run | free β | k | C | bounded β | CPU s |", "|---|---|---|---|---|---|"]
+    labels = {**PROBE_LABELS, **{hard_name(E): f"hard-particle limit, E_sp = E_w = {E:g} "
+                                  f"({len(plan.widths_hard)} widths, {plan.duration_hard:g} t0)"
+                                  for E in plan.hard_E_sp}}
+    for name in ("q2d", *(p for p in plan.probes if probe_dim(p) == 2),
+                 *(hard_name(E) for E in plan.hard_E_sp), "q3d",
+                 *(p for p in plan.probes if probe_dim(p) == 3)):
+        key = (0.0, None, None)
+        f = fits.get(name, {}).get(key, {})
+        cost = results.get(name, {}).get(key, Series()).cpu
+        lines.append(f"| {labels[name]} | {_cell(f.get('free'), 'beta')} | "
+                     f"{_cell(f.get('free'), 'k')} | {_cell(f.get('free'), 'C')} | "
+                     f"{_cell(f.get('bounded'), 'beta')} | {cost:.0f} |")
+    return lines
+
+
+def _key_cells(key: tuple) -> str:
+    return " | ".join("" if v is None else f"{v:g}" for v in key)
+
+
+def _fits_table(fits: dict) -> list[str]:
+    lines = ["", "## Every fit", "",
+             "| sweep | λ | E_sp | θ_w | fit | widths | C | k | β | χ²/dof |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for name, by_key in fits.items():
+        for key, three in by_key.items():
+            for kind in FITS:
+                f = three.get(kind)
+                if f is not None:
+                    lines.append(f"| {name} | {_key_cells(key)} | {kind} | {f.x.min():g}–"
+                                 f"{f.x.max():g} ({f.x.size}) | {_cell(f, 'C')} | "
+                                 f"{_cell(f, 'k')} | {_cell(f, 'beta')} | {_chi(f)} |")
+    return lines
+
+
+def _rates_table(results: dict) -> list[str]:
+    lines = ["", "## Measured flow rates (MSER steady window)", "",
+             "| sweep | λ | E_sp | θ_w | w | Q | ± | CPU s (series) |",
+             "|---|---|---|---|---|---|---|---|"]
+    for name, series in results.items():
+        for key, ser in sorted(series.items(), key=_key_order):
+            for w, q, e in sorted(zip(ser.w, ser.Q, ser.Q_err)):
+                lines.append(f"| {name} | {_key_cells(key)} | {w:g} | {q:.4g} | {e:.2g} | "
+                             f"{ser.cpu:.0f} |")
+    total = sum(s.cpu for series in results.values() for s in series.values())
+    return lines + ["", f"Total run time of the points: {total:.0f} s.", ""]
+
+
 def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
                       scheduler: str | None = None, n_workers: int | None = None) -> Path:
     """Run (or continue) the second-pass study into ``out_dir``; write ``out_dir/report.md``."""
-    from grainflow.plotting.hopper_plots import plot_beta_sigmoid, plot_beverloo
     from grainflow.sweep import run_sweep
 
     plan = AUTHORS_REDUCED if reduced else AUTHORS_FULL
@@ -268,9 +401,9 @@ def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
         results[name] = collect(out / name, 0.0 if name in PROBES else None)
     dims = {"q2d": 2, "q3d": 3, "theta2d": 2, **{hard_name(E): 2 for E in plan.hard_E_sp},
             **{p: probe_dim(p) for p in plan.probes}}
-    fits = {name: {key: three_fits(s, dims[name], key[0]) for key, s in sorted(
-        series.items(), key=lambda kv: tuple(-1 if v is None else v for v in kv[0]))}
-        for name, series in results.items()}
+    fits = {name: {key: three_fits(s, dims[name], key[0])
+                   for key, s in sorted(series.items(), key=_key_order)}
+            for name, series in results.items()}
 
     lines = [f"# Hopper study (seed 003), the authors' path — "
              f"{'reduced' if reduced else 'full'} version", "",
@@ -284,115 +417,11 @@ def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
     if plan.reductions:
         lines += ["Reductions relative to the full study:", ""]
         lines += [f"- {r}" for r in plan.reductions] + [""]
-
-    for name, dim in dims.items():
-        if name in PROBES:
-            continue
-        for kind in ("free",):
-            chosen = [(key, f[kind]) for key, f in fits.get(name, {}).items() if kind in f]
-            if chosen:
-                labels = [", ".join(p for p in (f"λ = {k[0]:g}",
-                                                f"E_sp = {k[1]:g}" if k[1] else "",
-                                                f"θ_w = {k[2]:g}" if k[2] else "") if p)
-                          for k, _ in chosen]
-                plot_beverloo([f for _, f in chosen], out / f"{name}_beverloo.png", dim=dim,
-                              labels=labels)
-                lines.append(f"![Q(w) {name}]({name}_beverloo.png)")
-    lines.append("")
-
-    for lam, label in ((0.0, "friction limit"), (math.inf, "drag limit")):
-        ser = results["q2d"].get((lam, None, None))
-        if ser and ser.rundirs:
-            final = Path(ser.rundirs[int(np.argmax(ser.w))]) / "final.png"
-            if final.is_file():
-                lines.append(f"![{label}, w = {max(ser.w):g}]({final.relative_to(out)})")
-    q2d = {key[0]: f for key, f in fits["q2d"].items()}
-    sig = _sigmoids(q2d, 2)
-    if "free" in sig:
-        plot_beta_sigmoid(sig["free"], out / "beta_lambda.png")
-        lines.append("![beta(lambda), free fits](beta_lambda.png)")
-    lines += ["", "## Seed numbers, three fits side by side", "",
-              "| quantity | seed | free | beta fixed | bounded (paper) |",
-              "|---|---|---|---|---|"]
-
-    def row(label: str, name: str, key: tuple, attr: str, seed: Any) -> None:
-        f = fits.get(name, {}).get(key, {})
-        lines.append(f"| {label} | {seed} | {_cell(f.get('free'), attr)} | "
-                     f"{_cell(f.get('fixed'), attr)} | {_cell(f.get('bounded'), attr)} |")
-
-    for dim, name in ((2, "q2d"), (3, "q3d")):
-        for lam in (0.0, math.inf):
-            row(f"{dim}D β, λ→{'0' if lam == 0 else '∞'}", name, (lam, None, None), "beta",
-                SEED[("beta", dim, lam)])
-    for lam in (0.0, math.inf):
-        c = 0.15 if lam == 0 else 0.42
-        row(f"C, λ→{'0' if lam == 0 else '∞'} (E_sp = 139)", "q2d", (lam, None, None), "C",
-            f"{c} ({c * C_SCALE:.2f} \| {c * C_SCALE_PRINTED_T0:.2f})")
-    for E in plan.hard_E_sp:
-        for lam in (0.0, math.inf):
-            for attr in ("beta", "k"):
-                row(f"hard {attr}, λ→{'0' if lam == 0 else '∞'}, E_sp = {E:g}", hard_name(E),
-                    (lam, None, None), attr, SEED[(attr, 2, lam)])
-            c = SEED[("C", 2, lam)]
-            row(f"hard C, λ→{'0' if lam == 0 else '∞'}, E_sp = {E:g}", hard_name(E),
-                (lam, None, None), "C",
-                f"{c} ({c * C_SCALE:.2f} \| {c * C_SCALE_PRINTED_T0:.2f})")
-    sig3 = _sigmoids({key[0]: f for key, f in fits["q3d"].items()}, 3)
-    for dim, sigmoids, seed in ((2, sig, 0.05), (3, sig3, 0.07)):
-        for kind in ("free", "bounded"):
-            s = sigmoids.get(kind)
-            lines.append(f"| {dim}D λ_c from the {kind} betas | {seed} | "
-                         f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
-    for theta in plan.theta_w:
-        tf = {key[0]: f for key, f in fits.get("theta2d", {}).items() if key[2] == theta}
-        st = _sigmoids(tf, 2)
-        for kind in ("free", "bounded"):
-            s = st.get(kind)
-            lines.append(f"| λ_c at θ_w = {theta:g}° ({kind} betas) | falls to ~6e-3 (OCR "
-                         "'6x10^?') | "
-                         f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
-
-    lines += ["", "## What moves beta at the friction limit (lambda = 0)", "",
-              "| run | free β | k | C | bounded β | CPU s |", "|---|---|---|---|---|---|"]
-    labels = {**PROBE_LABELS, **{hard_name(E): f"hard-particle limit, E_sp = E_w = {E:g} "
-                                  f"({len(plan.widths_hard)} widths, {plan.duration_hard:g} t0)"
-                                  for E in plan.hard_E_sp}}
-    for name in ("q2d", *(p for p in plan.probes if probe_dim(p) == 2),
-                 *(hard_name(E) for E in plan.hard_E_sp), "q3d",
-                 *(p for p in plan.probes if probe_dim(p) == 3)):
-        key = (0.0, None, None)
-        f = fits.get(name, {}).get(key, {})
-        cost = results.get(name, {}).get(key, Series()).cpu
-        lines.append(f"| {labels[name]} | {_cell(f.get('free'), 'beta')} | "
-                     f"{_cell(f.get('free'), 'k')} | {_cell(f.get('free'), 'C')} | "
-                     f"{_cell(f.get('bounded'), 'beta')} | {cost:.0f} |")
-
-    lines += ["", "## Every fit", "",
-              "| sweep | λ | E_sp | θ_w | fit | widths | C | k | β | χ²/dof |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
-    for name, by_key in fits.items():
-        for key, three in by_key.items():
-            for kind in FITS:
-                f = three.get(kind)
-                if f is None:
-                    continue
-                lines.append(
-                    f"| {name} | {key[0]:g} | {'' if key[1] is None else f'{key[1]:g}'} | "
-                    f"{'' if key[2] is None else f'{key[2]:g}'} | {kind} | "
-                    f"{f.x.min():g}–{f.x.max():g} ({f.x.size}) | {_cell(f, 'C')} | "
-                    f"{_cell(f, 'k')} | {_cell(f, 'beta')} | {_chi(f)} |")
-    lines += ["", "## Measured flow rates (MSER steady window)", "",
-              "| sweep | λ | E_sp | θ_w | w | Q | ± | CPU s (series) |",
-              "|---|---|---|---|---|---|---|---|"]
-    for name, series in results.items():
-        for key, ser in sorted(series.items(), key=lambda kv: tuple(
-                -1 if v is None else v for v in kv[0])):
-            for w, q, e in sorted(zip(ser.w, ser.Q, ser.Q_err)):
-                lines.append(f"| {name} | {key[0]:g} | {'' if key[1] is None else f'{key[1]:g}'}"
-                             f" | {'' if key[2] is None else f'{key[2]:g}'} | {w:g} | {q:.4g} | "
-                             f"{e:.2g} | {ser.cpu:.0f} |")
-    total = sum(s.cpu for series in results.values() for s in series.values())
-    lines += ["", f"Total run time of the points: {total:.0f} s.", ""]
+    lines += _figures(out, fits, results, dims)
+    lines += _seed_table(plan, fits)
+    lines += _probe_table(plan, fits, results)
+    lines += _fits_table(fits)
+    lines += _rates_table(results)
     report = out / "report.md"
     report.write_text("\n".join(lines) + "\n")
     return report
