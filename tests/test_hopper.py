@@ -379,3 +379,35 @@ def test_inclined_hopper_is_filled_inside_its_funnel(theta: float) -> None:
     rng = np.random.default_rng(1)
     pts = rng.uniform([-0.5 * W, 0.0], [0.5 * W, 30.0], (200_000, 2))
     assert region.volume() == pytest.approx(region.contains(pts).mean() * W * 30.0, rel=0.01)
+
+
+def test_authors_study_plan_builds_valid_sweeps() -> None:
+    """The second pass's sweeps: every point runs the authors' convention, the hard limit has
+    walls as stiff as its grains, the inclined hoppers the authors' mu, the probes change
+    one thing each; the report's fits are free, bounded and (at the limits) fixed."""
+    from grainflow.studies.hopper_authors import (AUTHORS_FULL, AUTHORS_REDUCED, MU_INCLINED,
+                                                  PROBES, Series, hard_name, sweep_specs,
+                                                  three_fits)
+
+    for plan in (AUTHORS_REDUCED, AUTHORS_FULL):
+        specs = sweep_specs(plan)
+        assert set(specs) == {"q2d", "q3d", "theta2d", *plan.probes,
+                              *(hard_name(E) for E in plan.hard_E_sp)}
+        for name, spec in specs.items():
+            for point in spec.points():
+                hopper = point.config(spec.base)["hopper"]
+                assert hopper["convention"] == "authors"
+                if name.startswith("hard2d"):
+                    assert hopper["E_w"] == hopper["E_sp"]
+                if name == "theta2d":
+                    assert hopper["mu_limit"] == pytest.approx(MU_INCLINED)
+                if name in PROBES:
+                    assert hopper["lam"] == 0.0
+    widths = [3.0, 4.6, 6.2, 7.8, 9.4]
+    q = [0.5 * (w - 1.0) ** 1.8 for w in widths]
+    series = Series(w=widths, Q=q, Q_err=[0.01 * x for x in q])
+    fits = three_fits(series, 2, 0.0)
+    assert fits["free"].beta == pytest.approx(1.8, abs=1e-3)
+    assert fits["bounded"].beta == pytest.approx(1.58) and "beta" in fits["bounded"].at_bound
+    assert fits["fixed"].beta == 1.5 and fits["fixed"].beta_fixed
+    assert "fixed" not in three_fits(series, 2, 0.05)

@@ -82,15 +82,15 @@ AUTHORS_REDUCED = AuthorsPlan(
     theta_w=(60.0, 30.0, 20.0), duration_theta=150.0, widths_theta=(3.0, 5.4, 7.8, 10.2),
     lambdas_theta=(0.0, 1e-3, 5e-3, 0.02, 0.1, math.inf),
     widths_probe=(3.0, 4.6, 6.2, 7.8, 9.4, 10.6),
-    probes=("friction_dt", "friction_E1000", "friction3d_mu10"),
+    probes=("friction_E1000",),
     reductions=("6 widths of the authors' 20 in 2D (3.0-10.6), 6 in 3D (4-9; full: 4-10)",
                 "7 lambda in 2D (full: 12), the two limits in 3D (full: 6 lambda); the inclined hoppers (theta_w = 60, 30, 20) with "
                 "4 widths and 6 lambda (full: 5 widths, 8 lambda)",
                 "150 t0 of flow in 2D (the authors' runs: ~153 t0), 100 t0 in 3D and for the "
                 "hard-particle limit (full: 300, 200, 150)",
                 "hard-particle limit with 4 widths (full: 10)",
-                "three friction-limit probes (the authors' dt, E_sp = 1000, 3D at a tenth of "
-                "mu); full: also full friction and constant stiffness"))
+                "one friction-limit probe (E_sp = 1000); full: also the authors' dt, full "
+                "friction, constant stiffness and 3D at a tenth of mu"))
 
 #: The friction-limit probes: one convention changed at a time.
 PROBES: dict[str, dict[str, Any]] = {
