@@ -26,7 +26,7 @@ UNITS = CodeUnits()
 
 
 def test_conversion_reproduces_the_derived_table() -> None:
-    """The numbers of PARAMETERS.md's table, derived here from g, mass_factor and sigma."""
+    """The numbers of docs/hopper_study.md's conversion table, derived here from g, mass_factor and sigma."""
     assert UNITS.time == pytest.approx(math.sqrt(1.2 * 16 / 0.05))  # 19.6
     assert UNITS.mu(10.0) == pytest.approx(8.505, abs=1e-3)
     assert UNITS.gamma(0.1) == pytest.approx(1.960, abs=1e-3)

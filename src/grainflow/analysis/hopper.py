@@ -543,7 +543,7 @@ def fit_beverloo(
     beta : impose the exponent and fit only C and k (e.g. beta = d - 1/2).
     beta_bounds, k_min : a bounded fit, ``beta_bounds[0] <= beta <= beta_bounds[1]`` and
         ``k >= k_min``: how the seed's authors fitted beta(lambda) (beta <= 1.58 and k >= 0.5
-        in 2D, 1.5 <= beta <= 2.5 in 3D; PARAMETERS.md). A parameter that ends on its bound
+        in 2D, 1.5 <= beta <= 2.5 in 3D; docs/hopper_study.md). A parameter that ends on its bound
         is reported with the uncertainty of the local curvature; see :attr:`BeverlooFit.at_bound`.
     """
     w_arr, q_arr = _as_1d("w", w), _as_1d("Q", Q)

@@ -141,20 +141,20 @@ class Drag(Force):
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
         if self.per_mass:
-            _add_mass_drag(st.force, st.v, st.mass, self._zeta_of_types(st), st.type,
+            _add_mass_drag(st.force, st.v, st.mass, self._values_of_types(st), st.type,
                            st.frozen)
         else:
-            _add_drag(st.force, st.v, self._zeta_of_types(st), st.type, st.frozen)
+            _add_drag(st.force, st.v, self._values_of_types(st), st.type, st.frozen)
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         st = ctx.state
         if self.per_mass:
             return step_call(_mass_drag_step, "mass_drag", (st.force, st.v, st.mass,
-                             self._zeta_of_types(st), st.type, st.frozen), ADD=_add_mass_drag)
-        return step_call(_drag_step, "drag", (st.force, st.v, self._zeta_of_types(st),
+                             self._values_of_types(st), st.type, st.frozen), ADD=_add_mass_drag)
+        return step_call(_drag_step, "drag", (st.force, st.v, self._values_of_types(st),
                          st.type, st.frozen), ADD=_add_drag)
 
-    def _zeta_of_types(self, st) -> np.ndarray:
+    def _values_of_types(self, st) -> np.ndarray:
         """zeta (or gamma) per type, cached per particle-set generation."""
         if self._types_of is None or self._types_of[0] != st.generation:
             # the types present change only when particles are added, removed or re-sorted

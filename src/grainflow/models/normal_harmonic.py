@@ -13,8 +13,7 @@ as a partner of radius 0 (``sigma = r_m``, i.e. the seed's ``(eps_w/2)(1 - 2 d_w
 * ``"constant"``: one ``epsilon`` for every pair of the type pair (seed 003 eq. 4 as printed);
 * ``"diameter"``: ``epsilon_mn = epsilon * sigma_mn``, so that the force
   ``epsilon (1 - r/sigma_mn)`` has one scale for every size. This is the authors' public code
-  (pair force ``spK (1 - r/sigma_mn)``, ``../shared/PARAMETERS.md`` "Seed 003: what the
-  authors' public code shows"); ``epsilon`` is then a force, and in units of sigma_avg it is
+  (pair force ``spK (1 - r/sigma_mn)``; docs/hopper_study.md, "Second pass"); ``epsilon`` is then a force, and in units of sigma_avg it is
   the energy scale of a pair of mean diameter sigma_avg. For a wall partner
   ``sigma = r_m``: ``epsilon_w,m = epsilon r_m``.
 """

@@ -252,7 +252,7 @@ def dissipation(section: HopperSection, dim: int = 2) -> Dissipation:
     mu_l and zeta_l the two limits and lambda* = zeta_l/mu_l:
 
     * ``"interpolate"``: mu = mu_l/(1 + s), zeta = zeta_l s/(1 + s), s = lambda/lambda*;
-    * ``"authors"`` (their lambda sweep, PARAMETERS.md): mu = mu_l, zeta = lambda mu_l for
+    * ``"authors"`` (their lambda sweep, docs/hopper_study.md): mu = mu_l, zeta = lambda mu_l for
       lambda <= lambda*; zeta = zeta_l, mu = zeta_l/lambda above.
     """
     options = section.resolved_options()
@@ -373,7 +373,7 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         dim, 0.0, np.zeros(dim - 1), width, depth=options["reinsert_depth"],
         bulk_contacts=0 if lanes else (dim + 1 if bulk_contacts is None else bulk_contacts),
         count_at=options["count_at"], placement=options["reinsertion"],
-        lanes=AUTHORS_CODE.lanes, lift=SIGMA_SMALL, lane_reach=1.5 * SIGMA_SMALL,
+        lanes=AUTHORS_CODE.lanes,  # lift and lane reach: the authors' (reinsertion defaults)
         inside=_inside_funnel(width, w, section.theta_w) if dim == 2 else None)
     updater.setup_state(sim.context)
     sim.add_updater(updater, section.reinsert_every)
@@ -447,10 +447,14 @@ class FunnelRegion:
         return ((np.abs(x[:, 0]) <= self._half_width(y, margin)) & (y >= self.y_lo + margin)
                 & (y <= self.y_hi - margin))
 
-    def volume(self) -> float:
-        """The area (trapezoidal rule on 2001 heights; the width is piecewise linear)."""
+    def area(self, margin: float = 0.0) -> float:
+        """The area of the part at least ``margin`` from the walls, over y_lo .. y_hi
+        (trapezoidal rule on 2001 heights; the width is piecewise linear)."""
         y = np.linspace(self.y_lo, self.y_hi, 2001)
-        return float(np.trapezoid(2.0 * np.clip(self._half_width(y, 0.0), 0.0, None), y))
+        return float(np.trapezoid(2.0 * np.clip(self._half_width(y, margin), 0.0, None), y))
+
+    def volume(self) -> float:
+        return self.area()
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return (np.array([-0.5 * self.W, self.y_lo]), np.array([0.5 * self.W, self.y_hi]))
@@ -471,9 +475,7 @@ def _funnel_fill(W: float, w: float, theta_deg: float, r_max: float,
     the area of the region inset by ``r_max``, where centres may go)."""
 
     def inset_area(top: float) -> float:
-        region = FunnelRegion(W, w, theta_deg, r_max, top)
-        y = np.linspace(r_max, top, 2001)
-        return float(np.trapezoid(2.0 * np.clip(region._half_width(y, r_max), 0.0, None), y))
+        return FunnelRegion(W, w, theta_deg, r_max, top).area(margin=r_max)
 
     lo, hi = r_max, r_max + 1.0
     while inset_area(hi) < area:

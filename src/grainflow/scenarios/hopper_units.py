@@ -1,7 +1,7 @@
 """The authors' code units of seed 003 and their conversion to the study's units.
 
 Seed 003's numbers (Cheng et al., Soft Matter 18, 8071 (2022)) were produced by the authors'
-2D code (``../shared/PARAMETERS.md``, "Seed 003: what the authors' public code shows"). In
+2D code (the facts read from it are restated in docs/hopper_study.md, "Second pass"). In
 that code lengths are in sigma_s = 1 (sigma_l = 1.4), a grain of area a0 = pi r^2 has the
 inertial mass ``mass_factor`` a0 = 16 a0 but the weight g a0 with g = 0.05, the pair force is
 spK (1 - r/sigma_mn), the wall force K_w (1 - 2 d/sigma_m), the kinetic friction -mu v_t,
@@ -120,7 +120,7 @@ class CodeUnits:
 
 @dataclass(frozen=True)
 class AuthorsCode:
-    """The code's committed values (PARAMETERS.md): friction limit mu = 10 (b = 0), drag limit
+    """The code's committed values (docs/hopper_study.md, "Second pass"): friction limit mu = 10 (b = 0), drag limit
     b = 0.1 (mu = 0), spK = 10, K_w = 100, dt = 0.005, the orifice closed for 1200 steps, a
     grain counted and moved ~2.5 of its diameters past the orifice, 28 reinsertion lanes."""
 

@@ -266,8 +266,19 @@ def _seed_c(c: float) -> str:
     return f"{c} ({c * C_SCALE:.2f} \\| {c * C_SCALE_PRINTED_T0:.2f})"
 
 
-def _figures(out: Path, fits: dict, results: dict,
-             dims: dict[str, int]) -> list[str]:
+def _sigmoid_fits(plan: AuthorsPlan, fits: dict) -> dict[Any, dict[str, Any]]:
+    """beta(lambda) sigmoids: ``"q2d"``, ``"q3d"`` and each theta_w of the inclined hoppers."""
+    out: dict[Any, dict[str, Any]] = {
+        name: _sigmoids({key[0]: f for key, f in fits.get(name, {}).items()}, dim)
+        for name, dim in (("q2d", 2), ("q3d", 3))}
+    for theta in plan.theta_w:
+        out[theta] = _sigmoids({key[0]: f for key, f in fits.get("theta2d", {}).items()
+                                if key[2] == theta}, 2)
+    return out
+
+
+def _figures(out: Path, fits: dict, results: dict, dims: dict[str, int],
+             sigmoids: dict[Any, dict[str, Any]]) -> list[str]:
     """Q(w) with the free fits per sweep, two snapshots and beta(lambda)."""
     from grainflow.plotting.hopper_plots import plot_beta_sigmoid, plot_beverloo
 
@@ -289,14 +300,14 @@ def _figures(out: Path, fits: dict, results: dict,
             final = Path(ser.rundirs[int(np.argmax(ser.w))]) / "final.png"
             if final.is_file():
                 lines.append(f"![{label}, w = {max(ser.w):g}]({final.relative_to(out)})")
-    sig = _sigmoids({key[0]: f for key, f in fits["q2d"].items()}, 2)
-    if "free" in sig:
-        plot_beta_sigmoid(sig["free"], out / "beta_lambda.png")
+    if "free" in sigmoids["q2d"]:
+        plot_beta_sigmoid(sigmoids["q2d"]["free"], out / "beta_lambda.png")
         lines.append("![beta(lambda), free fits](beta_lambda.png)")
     return lines
 
 
-def _seed_table(plan: AuthorsPlan, fits: dict) -> list[str]:
+def _seed_table(plan: AuthorsPlan, fits: dict,
+                sigmoids: dict[Any, dict[str, Any]]) -> list[str]:
     """Every seed number with the free, fixed-beta and bounded fits side by side."""
     lines = ["", "## Seed numbers, three fits side by side", "",
              "| quantity | seed | free | beta fixed | bounded (paper) |", "|---|---|---|---|---|"]
@@ -320,16 +331,13 @@ def _seed_table(plan: AuthorsPlan, fits: dict) -> list[str]:
             row(f"hard C, λ→{_arrow(lam)}, E_sp = {E:g}", hard_name(E), lam, "C",
                 _seed_c(SEED[("C", 2, lam)]))
     for dim, name, seed in ((2, "q2d", 0.05), (3, "q3d", 0.07)):
-        sigmoids = _sigmoids({key[0]: f for key, f in fits.get(name, {}).items()}, dim)
         for kind in ("free", "bounded"):
-            s = sigmoids.get(kind)
+            s = sigmoids[name].get(kind)
             lines.append(f"| {dim}D λ_c from the {kind} betas | {seed} | "
                          f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
     for theta in plan.theta_w:
-        sigmoids = _sigmoids({key[0]: f for key, f in fits.get("theta2d", {}).items()
-                              if key[2] == theta}, 2)
         for kind in ("free", "bounded"):
-            s = sigmoids.get(kind)
+            s = sigmoids[theta].get(kind)
             lines.append(f"| λ_c at θ_w = {theta:g}° ({kind} betas) | falls to ~6e-3 (OCR "
                          f"'6x10^?') | {fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} "
                          "| | |")
@@ -410,15 +418,16 @@ def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
              "`[hopper] convention = \"authors\"` (docs/hopper_study.md, \"Second pass\"). "
              "Flow rates are area (2D) / volume (3D) rates in Q0 = sigma_avg^d/t0. The seed's C "
              "are as printed, then in our units (in brackets) read two ways: as grains per 1000 "
-             f"code steps (PARAMETERS.md: x {C_SCALE:.2f}) | with the paper's printed t0 = "
+             f"code steps (the seed notes' reading: x {C_SCALE:.2f}) | with the paper's printed t0 = "
              f"sqrt(10) code time (x {C_SCALE_PRINTED_T0:.2f}). "
              "Fits: free; beta fixed as the paper fixed it; the paper's bounded fit (2D beta <= "
              "1.58, k >= 0.5; 3D 1.5 <= beta <= 2.5). Never rescaled.", ""]
     if plan.reductions:
         lines += ["Reductions relative to the full study:", ""]
         lines += [f"- {r}" for r in plan.reductions] + [""]
-    lines += _figures(out, fits, results, dims)
-    lines += _seed_table(plan, fits)
+    sigmoids = _sigmoid_fits(plan, fits)
+    lines += _figures(out, fits, results, dims, sigmoids)
+    lines += _seed_table(plan, fits, sigmoids)
     lines += _probe_table(plan, fits, results)
     lines += _fits_table(fits)
     lines += _rates_table(results)
