@@ -146,7 +146,9 @@ def demo(
 
 @app.command()
 def study(
-    name: Annotated[str, typer.Argument(help="Which study: 'hopper' (seed 003).")],
+    name: Annotated[str, typer.Argument(help="Which study: 'hopper' (seed 003, soft "
+                                        "particles) or 'hopper-dp' (seed 003, deformable "
+                                        "rings; docs/dp.md).")],
     output: Annotated[Path | None, typer.Option("--output", "-o",
                                                 help="Study directory (default: NAME_study).")]
     = None,
@@ -161,12 +163,17 @@ def study(
 ) -> None:
     """Reproduce a seed study through the sweep engine and write its report.md."""
     with _errors():
-        if name != "hopper":
-            raise UsageError(f"study: {name!r} is not known; available: hopper")
+        if name not in ("hopper", "hopper-dp"):
+            raise UsageError(f"study: {name!r} is not known; available: hopper, hopper-dp")
         if convention not in ("authors", "grainflow"):
             raise UsageError(f"--convention: {convention!r} is not valid; use 'authors' or "
                              "'grainflow'")
-        if convention == "authors":
+        if name == "hopper-dp":
+            if convention != "authors":
+                raise UsageError("--convention: the DP study runs on the authors' "
+                                 "conventions only")
+            from grainflow.studies.hopper_dp import reproduce_dp as reproduce
+        elif convention == "authors":
             from grainflow.studies.hopper_authors import reproduce_authors as reproduce
         else:
             from grainflow.studies.hopper_study import reproduce

@@ -78,7 +78,13 @@ class Contacts:
 
 @dataclass(frozen=True)
 class Frame:
-    """Per-particle state at one step. All arrays are copies owned by the frame."""
+    """Per-particle state at one step. All arrays are copies owned by the frame.
+
+    ``ring_vertex`` (N,) int32: each particle's place in its deformable ring
+    (:mod:`grainflow.rings`; -1 = in no ring), counter-clockwise, the ring being its
+    ``body``. None when the state registered no rings (and in frames read back from a
+    trajectory in which no particle of the frame is in a ring).
+    """
 
     step: int
     time: float
@@ -92,6 +98,7 @@ class Frame:
     velocity: np.ndarray  # (N, dim)
     omega: np.ndarray  # (N, 3)
     contacts: Contacts | None = None
+    ring_vertex: np.ndarray | None = None  # (N,) int32, -1 outside rings; None: no rings
     extra: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property

@@ -23,6 +23,7 @@ import numpy as np
 
 from grainflow.frame import Box, Frame
 from grainflow.kernels.permute import take_rows
+from grainflow.rings import RING_VERTEX
 
 #: Fraction ``I / (m r^2)`` for the particle shape of each dimension.
 INERTIA_FACTOR = {2: 0.5, 3: 0.4}
@@ -277,13 +278,15 @@ class ParticleState:
 
     # --------------------------------------------------------------- output
     def to_frame(self, step: int, time: float, contacts=None) -> Frame:
-        """Copy the state into a :class:`~grainflow.frame.Frame`."""
+        """Copy the state into a :class:`~grainflow.frame.Frame` (with ``ring_vertex`` when
+        the state registered it, :mod:`grainflow.rings`)."""
         d = self.dim
         a = self.arrays
+        ring_vertex = a[RING_VERTEX].copy() if RING_VERTEX in a else None
         return Frame(step=step, time=time, box=self.box, id=a["id"].copy(), type=a["type"].copy(),
                      body=a["body"].copy(), radius=a["radius"].copy(), mass=a["mass"].copy(),
                      position=a["x"][:, :d].copy(), velocity=a["v"][:, :d].copy(),
-                     omega=a["omega"].copy(), contacts=contacts)
+                     omega=a["omega"].copy(), contacts=contacts, ring_vertex=ring_vertex)
 
     def kinetic_energy(self) -> float:
         """Translational kinetic energy sum 1/2 m v^2."""

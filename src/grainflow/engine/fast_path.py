@@ -58,13 +58,31 @@ def kernel_for(kernel: Any) -> Any:
     return serial(kernel) if _serial["now"] else kernel
 
 
-def step_call(template: Any, name: str, args: tuple, **kernels: Any) -> StepCall:
+@njit(cache=True)
+def _zero_forces(args, time, dt):
+    """Set force and torque to zero (what the first pair interaction's ``FIRST`` does)."""
+    args[0][:] = 0.0
+    args[1][:] = 0.0
+
+
+def zero_forces_call(state: Any) -> StepCall:
+    """The step call that zeroes forces and torques in a simulation without pair
+    interactions (Python's :meth:`~grainflow.engine.simulation.Simulation.compute_forces`
+    does the same)."""
+    return StepCall(_zero_forces, (state.force, state.torque))
+
+
+def step_call(template: Any, name: str, args: tuple, *, serial_twins: bool = True,
+              **kernels: Any) -> StepCall:
     """A :class:`StepCall` whose adapter is ``template`` with the names in ``kernels`` bound
-    to those kernels (:func:`kernel_for` each: serial twins on one thread)."""
-    key = (template, _serial["now"], *sorted((k, id(v)) for k, v in kernels.items()))
+    to those kernels (:func:`kernel_for` each: serial twins on one thread, unless
+    ``serial_twins`` is False: some kernels compile to much slower code without numba's
+    parallel transformation, which e.g. hoists allocations out of loops; measure first)."""
+    twins = serial_twins and _serial["now"]
+    key = (template, twins, *sorted((k, id(v)) for k, v in kernels.items()))
     adapter = _ADAPTERS.get(key)
     if adapter is None:
-        bound = {k: kernel_for(v) for k, v in kernels.items()}
+        bound = {k: kernel_for(v) if twins else v for k, v in kernels.items()}
         label = name + "_" + "_".join(getattr(v, "py_func", v).__name__
                                       for v in bound.values())
         adapter = _ADAPTERS[key] = specialize(template, label, bound)
@@ -127,11 +145,11 @@ class FastPath:
     def _collect(self, sim: Any) -> tuple[StepCall, StepCall, list[StepCall]] | None:
         ctx = sim.context
         halves = sim.integrator.step_calls(ctx)
-        if (halves is None or not sim.interactions  # without one, Python zeroes the force
-                or len(sim.interactions) + len(sim.forces) > SLOTS):
+        zeroing = [] if sim.interactions else [zero_forces_call(sim.state)]
+        if halves is None or len(zeroing) + len(sim.interactions) + len(sim.forces) > SLOTS:
             return None
-        ops = [interaction.step_call(ctx, first=k == 0)
-               for k, interaction in enumerate(sim.interactions)]
+        ops = zeroing + [interaction.step_call(ctx, first=k == 0)
+                         for k, interaction in enumerate(sim.interactions)]
         for force in sim.forces:
             call = force.step_call(ctx)
             if call is None:

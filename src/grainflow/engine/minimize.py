@@ -36,7 +36,8 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None,
     as they are: switch gravity off first for the seed-003 initialisation. Stops when the
     largest pair overlap is below ``overlap_tol`` (default ``1e-6`` of the mean diameter) and,
     if ``force_tol`` is given, the largest force component at most ``force_tol``; or after
-    ``max_steps``. (No force criterion by default: velocity-dependent forces such as seed
+    ``max_steps``. The step grows to at most ``dt_max_factor`` times the simulation's and a
+    fifth of its shortest oscillation time. (No force criterion by default: velocity-dependent forces such as seed
     003's kinetic friction leave a round-off residual that never reaches exactly zero.) The simulation's time
     step is restored afterwards, velocities are zeroed, and the step counter is not advanced.
     """
@@ -45,7 +46,10 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None,
         overlap_tol = 1e-6 * 2.0 * float(np.mean(st.radius)) if st.n else 0.0
     dt0 = sim.dt
     dt = dt0
-    dt_max = dt_max_factor * dt0
+    # FIRE's growing step stays below a fifth of the shortest oscillation (half period):
+    # ten times a coarse run step (dt_fraction 0.1 of the contact time) would be past
+    # velocity Verlet's limit (0.64 of it), and a fill with overlapping contacts explodes
+    dt_max = min(dt_max_factor * dt0, sim.stable_time_step(0.2))
     alpha = alpha_start
     since_negative = 0
     mobile = ~st.frozen

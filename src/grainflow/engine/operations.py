@@ -215,6 +215,11 @@ class Force(ABC):
         list changes; None (the default): the simulation steps in Python."""
         return None
 
+    def neighbor_reach(self) -> float:
+        """How far beyond touching (``r_i + r_j``) this operation needs the neighbour list
+        to list pairs; 0 (the default) for an operation that does not read the list."""
+        return 0.0
+
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
         """The times this operation's forces need resolved (for the time-step check)."""
         return []

@@ -330,8 +330,10 @@ class Simulation:
         self._owned_types = key
 
     def reach(self) -> float:
-        """Largest reach beyond touching of the pair interactions (the list's margin)."""
-        return max((i.law.reach() for i in self.interactions), default=0.0)
+        """Largest reach beyond touching of the pair interactions and of the force
+        operations that read the neighbour list (the list's margin)."""
+        return max([i.law.reach() for i in self.interactions]
+                   + [f.neighbor_reach() for f in self.forces], default=0.0)
 
     def _refresh_list(self) -> None:
         st = self.state

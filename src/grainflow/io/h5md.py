@@ -9,7 +9,11 @@ the dataset's fill value (-1 for integers, NaN for floats), as H5MD prescribes f
 same way ((i, j) in ``/connectivity/contacts``; force, branch vector and the int8 kind code of
 the partner, :data:`~grainflow.frame.CONTACT_KINDS`, in ``/observables/contacts``). A file
 written before kinds were stored has no ``kind`` dataset and reads back with every contact a
-particle pair. All elements share one ``step`` and one ``time`` dataset (hard links).
+particle pair. The deformable rings' topology, ``Frame.ring_vertex`` (:mod:`grainflow.rings`),
+is the int32 element ``/particles/all/ring_vertex`` (fill -1); a frame without it leaves its
+rows at the fill value (nothing is written), and a frame in which no particle is in a ring
+reads back with ``ring_vertex`` None, as does every frame of a file written before rings were
+stored. All elements share one ``step`` and one ``time`` dataset (hard links).
 
 Durability: the file is written in HDF5 SWMR mode, whose ordered metadata flushes keep the
 file consistent at every instant. :meth:`TrajectoryWriter.append` writes a frame's data and
@@ -138,6 +142,8 @@ _PARTICLE_FIELDS = (
     _Field("velocity", f"{_PARTICLES}/velocity", "f8", "dim", np.nan),
     _Field("omega", f"{_PARTICLES}/omega", "f8", 3, np.nan),
 )
+#: Optional per-particle element: absent from files written before rings were stored.
+_RING_VERTEX = _Field("ring_vertex", f"{_PARTICLES}/ring_vertex", "i4", None, -1)
 _CONTACT_PAIRS = _Field("pair", "connectivity/contacts", "i8", 2, -1)
 _CONTACT_KIND = _Field("kind", "observables/contacts/kind", "i1", None, -1)
 _CONTACT_FIELDS = (
@@ -182,7 +188,9 @@ class TrajectoryWriter:
 
     Use as a context manager, or call :meth:`close`. Frames must have strictly increasing
     steps and finite values (else :class:`NonFiniteFrameError`, and nothing of the frame is
-    written). ``Frame.extra`` is not stored.
+    written). ``Frame.extra`` is not stored. ``Frame.ring_vertex`` is, in any frame of a new
+    file; a file written before rings were stored is continued as it is, and a frame with
+    rings is refused there (ValueError: write a new file).
     """
 
     def __init__(
@@ -220,6 +228,8 @@ class TrajectoryWriter:
             self._file.flush()
         #: Most rows (particles, contacts) one frame may hold; fixed when the file is made.
         self.max_rows = self._file[_PARTICLE_FIELDS[0].element + "/value"].maxshape[1]
+        #: Whether the file stores ``ring_vertex`` (every file but those from before rings).
+        self.rings = _RING_VERTEX.element in self._file
         step = self._file[_STEP]
         self._n_frames = int(step.shape[0])
         self._last_step = int(step[-1]) if self._n_frames else None
@@ -238,6 +248,8 @@ class TrajectoryWriter:
         f, k = self._file, self._n_frames
         for fld in _PARTICLE_FIELDS:
             _write_rows(f[fld.element + "/value"], k, getattr(frame, fld.attr))
+        if self.rings:
+            _write_ring_vertex(f[_RING_VERTEX.element + "/value"], k, frame)
         _write_scalar(f[_PARTICLE_NUMBER + "/value"], k, frame.n)
         lo = np.asarray(frame.box.lo, dtype=float)
         _write_scalar(f[_BOX_ELEMENTS[0] + "/value"], k, np.asarray(frame.box.hi, dtype=float) - lo)
@@ -300,6 +312,7 @@ class TrajectoryWriter:
         for fld in _PARTICLE_FIELDS:
             expected = (frame.n, *fld.trailing(self.dim))
             _check_shape(where, f"frame.{fld.attr}", getattr(frame, fld.attr), expected)
+        self._check_ring_vertex(where, frame)
         self._check_rows(where, "particles", frame.n)
         if not self.contacts:
             return
@@ -320,6 +333,23 @@ class TrajectoryWriter:
                 f"({', '.join(CONTACT_KINDS)}); got {np.unique(kind)[:8]}"
             )
 
+
+    def _check_ring_vertex(self, where: str, frame: Frame) -> None:
+        """Validate ``frame.ring_vertex`` (integers >= -1, one per particle), and refuse rings
+        in a file written before rings were stored."""
+        ring_vertex = frame.ring_vertex
+        if ring_vertex is None:
+            return
+        _check_shape(where, "frame.ring_vertex", ring_vertex, (frame.n,))
+        ring_vertex = np.asarray(ring_vertex)
+        if ring_vertex.dtype.kind not in "iu" or (frame.n and ring_vertex.min() < -1):
+            raise ValueError(f"{where}: frame.ring_vertex must hold integers >= -1 (-1 = in "
+                             f"no ring); got dtype {ring_vertex.dtype}, minimum "
+                             f"{ring_vertex.min() if frame.n else None}")
+        if not self.rings and (ring_vertex >= 0).any():
+            raise ValueError(f"{where}: the frame has deformable rings, but {self.path.name} "
+                             "was written before ring_vertex was stored and cannot take it; "
+                             "write the frames into a new file")
 
     def _check_rows(self, where: str, what: str, rows: int) -> None:
         if self.max_rows is not None and rows > self.max_rows:  # None: a file from before
@@ -480,7 +510,7 @@ def _create_layout(
             chunks=(_CHUNK_FRAMES, *trailing), dtype=dtype,
         )
 
-    for fld in _PARTICLE_FIELDS:
+    for fld in (*_PARTICLE_FIELDS, _RING_VERTEX):
         per_row(fld)
     per_frame(_PARTICLE_NUMBER, "i8")
     for name in _BOX_ELEMENTS:
@@ -522,12 +552,27 @@ def _check_shape(where: str, name: str, array: np.ndarray, expected: tuple[int, 
         raise ValueError(f"{where}: {name} has shape {shape}, expected {expected}")
 
 
+def _grow_rows(ds: h5py.Dataset, k: int, n: int) -> None:
+    """Make room for frame ``k`` of ``n`` rows in a (frames, N_max, ...) dataset (at the fill
+    value until written), growing N_max if needed."""
+    ds.resize((k + 1, max(ds.shape[1], n), *ds.shape[2:]))
+
+
 def _write_rows(ds: h5py.Dataset, k: int, rows: np.ndarray) -> None:
     """Store ``rows`` as frame ``k`` of a (frames, N_max, ...) dataset, growing N_max if needed."""
     n = len(rows)
-    ds.resize((k + 1, max(ds.shape[1], n), *ds.shape[2:]))
+    _grow_rows(ds, k, n)
     if n:
         ds[k, :n] = rows
+
+
+def _write_ring_vertex(ds: h5py.Dataset, k: int, frame: Frame) -> None:
+    """Store ``frame.ring_vertex`` as frame ``k``; a frame without it keeps the fill value
+    -1 (no chunk is written, so a run without rings stores nothing)."""
+    if frame.ring_vertex is None:
+        _grow_rows(ds, k, frame.n)
+    else:
+        _write_rows(ds, k, frame.ring_vertex)
 
 
 def _write_scalar(ds: h5py.Dataset, k: int, value: Any) -> None:
@@ -812,6 +857,9 @@ def _check_salvaged(frame: Frame, last: Frame | None, dim: int, contacts: bool) 
             raise ValueError(f"{fld.attr}: rows missing")
     if n and (frame.id < 0).any():
         raise ValueError("absent particle ids")
+    if frame.ring_vertex is not None and (np.shape(frame.ring_vertex) != (n,)
+                                          or (frame.ring_vertex < -1).any()):
+        raise ValueError("ring_vertex: rows missing or invalid")
     if contacts:
         c = frame.contacts
         m = len(c.i)
@@ -825,6 +873,8 @@ def _check_salvaged(frame: Frame, last: Frame | None, dim: int, contacts: bool) 
 def _time_dependent(f: h5py.File) -> list[h5py.Dataset]:
     """Every dataset with a frame axis: the shared step and time, then the value datasets."""
     names = [fld.element for fld in _PARTICLE_FIELDS] + [_PARTICLE_NUMBER, *_BOX_ELEMENTS]
+    if _RING_VERTEX.element in f:
+        names.append(_RING_VERTEX.element)
     if _CONTACT_NUMBER in f:
         names += [_CONTACT_PAIRS.element, _CONTACT_NUMBER] + [fld.element for fld in _CONTACT_FIELDS]
     return [f[_STEP], f[_TIME]] + [f[name + "/value"] for name in names]
@@ -849,6 +899,7 @@ def _read(f: h5py.File, k: int) -> Frame:
     if not 0 <= n <= f[_PARTICLE_FIELDS[0].element + "/value"].shape[1]:
         raise OSError(f"frame {k}: stored particle number {n} is impossible")
     rows = {fld.attr: f[fld.element + "/value"][k, :n] for fld in _PARTICLE_FIELDS}
+    rows["ring_vertex"] = _read_ring_vertex(f, k, n)
     edges = f[_BOX_ELEMENTS[0] + "/value"][k]
     lo = f[_BOX_ELEMENTS[1] + "/value"][k]
     contacts = None
@@ -870,6 +921,15 @@ def _read(f: h5py.File, k: int) -> Frame:
     )
 
 
+def _read_ring_vertex(f: h5py.File, k: int, n: int) -> np.ndarray | None:
+    """``ring_vertex`` of frame ``k``; None if no particle is in a ring (or the file is from
+    before rings were stored)."""
+    if _RING_VERTEX.element not in f:
+        return None
+    ring_vertex = f[_RING_VERTEX.element + "/value"][k, :n]
+    return ring_vertex if (ring_vertex >= 0).any() else None
+
+
 # --- resuming ---------------------------------------------------------------------------
 
 
@@ -880,7 +940,8 @@ def _open_for_append(path: Path, resume_step: int | None) -> h5py.File:
     to open it for writing again; such a file is first rewritten (kept frames only) into a
     clean file that atomically replaces it. So is a file written before contact kinds were
     stored (its contacts become pairs), since SWMR cannot add the missing dataset in place
-    and adding it outside SWMR would not survive a kill.
+    and adding it outside SWMR would not survive a kill. A file written before rings were
+    stored is continued as it is (without ``ring_vertex``; see :class:`TrajectoryWriter`).
     """
     with _open_for_read(path) as f:
         outdated = _CONTACT_NUMBER in f and _CONTACT_KIND.element not in f

@@ -261,3 +261,43 @@ def plot_flow_rate_timeseries(flow: FlowRate, path: str | Path, *, t0: float = 1
     ax_r.legend(fontsize=7, frameon=False, loc="lower right")
     ax_r.set_title("(b) MSER transient cut", fontsize=10)
     return _save(fig, path)
+
+
+def plot_offsets(points: dict[float, Sequence[tuple[str, BeverlooFit]]],
+                 path: str | Path) -> Path:
+    """The offset k and exponent beta of each model's Beverloo fit at each lambda limit (the
+    DP study's version of seed Fig. 7: how k moves with deformability and roughness while beta
+    should not).
+
+    ``points``: lambda -> [(model label, fit)]; one marker series per lambda. Reference lines:
+    beta = 3/2 and 1/2 (the seed's 2D exponents at lambda -> 0 and inf).
+    """
+    labels: list[str] = []
+    for series in points.values():
+        labels += [name for name, _ in series if name not in labels]
+    if not labels:
+        raise ValueError("points: no fits to draw")
+    fig = _new_figure(2, width=4.8, height=3.8)
+    ax_k, ax_b = fig.subplots(1, 2, sharey=False)
+    colours = colormaps["tab10"].colors
+    y = np.arange(len(labels))
+    for i, (lam, series) in enumerate(sorted(points.items())):
+        name = r"$\lambda\to0$" if lam == 0 else (r"$\lambda\to\infty$" if np.isinf(lam)
+                                                  else rf"$\lambda={lam:g}$")
+        rows = [labels.index(label) + 0.12 * (i - 0.5) for label, _ in series]
+        fits = [f for _, f in series]
+        for ax, attr in ((ax_k, "k"), (ax_b, "beta")):
+            ax.errorbar([getattr(f, attr) for f in fits], rows,
+                        xerr=[getattr(f, f"{attr}_err") for f in fits], fmt=_MARKERS[i],
+                        color=colours[i], ms=5, capsize=2, mfc="none", label=name)
+    for ax in (ax_k, ax_b):
+        ax.set_yticks(y, labels, fontsize=7)
+        ax.invert_yaxis()
+    ax_b.axvline(1.5, ls=":", color="0.3", lw=1)
+    ax_b.axvline(0.5, ls="--", color="0.3", lw=1)
+    ax_k.set_xlabel(r"offset $k$ ($w/\sigma_{avg}$ at $Q = 0$)")
+    ax_b.set_xlabel(r"exponent $\beta$")
+    ax_k.legend(fontsize=7, frameon=False)
+    ax_k.set_title("(a) offset k", fontsize=10)
+    ax_b.set_title(r"(b) exponent $\beta$ (seed: 3/2 and 1/2)", fontsize=10)
+    return _save(fig, path)

@@ -1,9 +1,11 @@
 """Snapshot images of a frame: grains drawn at their true size, coloured by a per-grain value.
 
 2D frames are drawn as disks; 3D frames as the projection of the spheres onto a coordinate
-plane, drawn far-to-near so that nearer grains cover farther ones. Figures are rendered with
-matplotlib's Agg canvas directly, without pyplot, so importing this module leaves the
-user's matplotlib backend alone.
+plane, drawn far-to-near so that nearer grains cover farther ones. A 2D frame's deformable
+rings (:mod:`grainflow.rings`) are drawn as filled polygons through their vertices, each
+coloured by the mean of its vertices' values (optionally with the vertex disks outlined).
+Figures are rendered with matplotlib's Agg canvas directly, without pyplot, so importing this
+module leaves the user's matplotlib backend alone.
 """
 
 from __future__ import annotations
@@ -14,10 +16,12 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.collections import EllipseCollection, LineCollection
+from matplotlib.axes import Axes
+from matplotlib.collections import EllipseCollection, LineCollection, PolyCollection
 from matplotlib.figure import Figure
 
 from grainflow.frame import Frame
+from grainflow.rings import frame_rings, ring_outlines
 
 __all__ = ["COLOR_BY", "snapshot"]
 
@@ -46,37 +50,50 @@ def snapshot(
     plane: str = "xz",
     cmap: str = "viridis",
     dpi: int = 150,
+    vertices: bool = False,
 ) -> Path:
     """Draw ``frame`` to an image file (format from the suffix, e.g. ``.png``); returns the path.
 
     ``color_by``: a name from :data:`COLOR_BY` or an (N,) array of values. ``walls``: line
     segments ``((x0, y0), (x1, y1))`` in the plotted coordinates. ``plane``: for 3D frames, the
     two axes shown (``"xz"``: side view, ``"xy"``: top view, ``"yz"``); ignored in 2D.
-    The default title gives the step, time and number of grains.
+    The default title gives the step, time and number of grains (and of rings).
+
+    In 2D, each deformable ring is one filled polygon through its vertices, unwrapped across
+    periodic boundaries, coloured by the mean of ``color_by`` over its vertices (by type:
+    the ring's type), on the colour scale of the other grains; ``vertices=True`` also outlines
+    the vertex particles' disks thinly.
     """
     axes = _plot_axes(frame.dim, plane)
     values, label = _colour_values(frame, color_by, axes)
+    index = frame_rings(frame)[1] if frame.dim == 2 else np.zeros((0, 0), dtype=np.int64)
+    outlines = ring_outlines(frame, index)
     order = _draw_order(frame, axes)
+    order = order[~np.isin(order, index)]  # ring vertices are drawn with their rings
     centres = frame.position[order][:, axes]
     diameters = 2.0 * frame.radius[order]
 
-    lo, hi = _limits(frame, axes, walls)
+    lo, hi = _limits(frame, axes, walls, outlines)
     fig = Figure(figsize=_figure_size(hi - lo), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), aspect="equal")
     grains = EllipseCollection(
-        diameters, diameters, np.zeros(frame.n), units="xy",
+        diameters, diameters, np.zeros(len(order)), units="xy",
         offsets=centres, offset_transform=ax.transData, cmap=cmap,
         edgecolors="black", linewidths=0.2,
     )
     grains.set_array(values[order])
     ax.add_collection(grains)
+    if len(index):
+        _draw_rings(ax, frame, index, outlines, values, grains, vertices)
     if walls:
         ax.add_collection(LineCollection(np.asarray(walls, dtype=float), colors="black", linewidths=1.5))
     names = "xyz"
     ax.set_xlabel(names[axes[0]])
     ax.set_ylabel(names[axes[1]])
-    ax.set_title(title if title is not None else f"step {frame.step}, t = {frame.time:.6g}, N = {frame.n}")
+    rings = f", {len(index)} rings" if len(index) else ""
+    ax.set_title(title if title is not None else
+                 f"step {frame.step}, t = {frame.time:.6g}, N = {frame.n}{rings}")
     fig.colorbar(grains, ax=ax, label=label, shrink=0.8)
     path = Path(path)
     fig.savefig(path, dpi=dpi)
@@ -128,8 +145,30 @@ def _colour_values(frame: Frame, color_by: str | np.ndarray, axes: list[int]) ->
     return np.asarray(values, dtype=float).reshape(frame.n), COLOR_BY[color_by]
 
 
-def _limits(frame: Frame, axes: list[int], walls: Sequence[Segment] | None) -> tuple[np.ndarray, np.ndarray]:
-    """Plot bounds fitting the grains, the walls and the periodic box axes, with a small margin."""
+def _draw_rings(ax: Axes, frame: Frame, index: np.ndarray, outlines: np.ndarray,
+                values: np.ndarray, grains: EllipseCollection, vertices: bool) -> None:
+    """Add the rings ``index`` as polygons ``outlines`` coloured by the mean of ``values`` over
+    their vertices, on one colour scale with ``grains``; outline the vertex disks if asked."""
+    ring_values = values[index].mean(axis=1)
+    polygons = PolyCollection(outlines, cmap=grains.get_cmap(), edgecolors="black", linewidths=0.4)
+    polygons.set_array(ring_values)
+    both = np.concatenate([grains.get_array(), ring_values])
+    for mappable in (grains, polygons):
+        mappable.set_clim(both.min(), both.max())
+    ax.add_collection(polygons)
+    if vertices:
+        diameters = 2.0 * frame.radius[index.ravel()]
+        ax.add_collection(EllipseCollection(
+            diameters, diameters, np.zeros(index.size), units="xy",
+            offsets=outlines.reshape(-1, 2), offset_transform=ax.transData,
+            facecolors="none", edgecolors="black", linewidths=0.2,
+        ))
+
+
+def _limits(frame: Frame, axes: list[int], walls: Sequence[Segment] | None,
+            outlines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Plot bounds fitting the grains, the walls, the ring ``outlines`` (R, N_v, 2) and the
+    periodic box axes, with a small margin."""
     lo = np.full(2, np.inf)
     hi = np.full(2, -np.inf)
     if frame.n:
@@ -139,6 +178,10 @@ def _limits(frame: Frame, axes: list[int], walls: Sequence[Segment] | None) -> t
     if walls:
         points = np.asarray(walls, dtype=float).reshape(-1, 2)
         lo, hi = np.minimum(lo, points.min(axis=0)), np.maximum(hi, points.max(axis=0))
+    if outlines.size:
+        points = outlines.reshape(-1, 2)
+        r_max = float(frame.radius.max())
+        lo, hi = np.minimum(lo, points.min(axis=0) - r_max), np.maximum(hi, points.max(axis=0) + r_max)
     for k, axis in enumerate(axes):
         if frame.box.periodic[axis] or not np.isfinite(lo[k]):
             lo[k] = min(lo[k], frame.box.lo[axis])

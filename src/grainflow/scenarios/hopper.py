@@ -58,6 +58,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 
 from grainflow.scenarios import Scenario, register
 from grainflow.scenarios.hopper_reinsertion import HopperReinsertion
+from grainflow.scenarios.hopper_rings import RingReinsertion
 from grainflow.scenarios.hopper_units import AUTHORS_CODE
 from grainflow.engine.minimize import relax
 
@@ -137,7 +138,7 @@ class HopperSection(BaseModel):
     E_w: float | None = Field(None, gt=0, allow_inf_nan=False,
                               description="wall stiffness eps_w/(g rho sigma_avg^(d+1)) (of a "
                               "grain of diameter sigma_avg with stiffness = 'diameter'); "
-                              "default 1e4 (grainflow), 694 (authors)")
+                              "default 1e4 (grainflow), 694 (authors); DP vertices: E_c")
     stiffness: Literal["constant", "diameter"] | None = Field(
         None, description="'constant': one eps for every pair and one for every grain on a "
         "wall (seed eq. 4); 'diameter': eps_mn = E_sp sigma_mn, eps_w = E_w sigma_m, the "
@@ -198,6 +199,22 @@ class HopperSection(BaseModel):
         "the highest grain of the column (docs/hopper_study.md)")
     dt_fraction: float = Field(0.05, gt=0, le=0.25, description="dt = dt_fraction * t_c (pairs "
                                "and walls) unless run.dt is given")
+    particles: Literal["sp", "dp_rough", "dp_smooth"] = Field(
+        "sp", description="'sp': soft disks/spheres (M3); 'dp_rough' / 'dp_smooth': 2D "
+        "deformable rings (M6) with vertex disks of diameter l0 / circulo-line edges "
+        "(docs/dp.md)")
+    K_a: float = Field(1.0e4, gt=0, allow_inf_nan=False, description="DP area stiffness "
+                       "k_a sigma_avg^4/(g rho sigma_avg^3) (docs/dp.md)")
+    K_l: float = Field(10.0, ge=0, allow_inf_nan=False, description="DP perimeter-spring "
+                       "stiffness k_l sigma_avg^2/(g rho sigma_avg^3)")
+    K_b: float = Field(0.1, ge=0, allow_inf_nan=False, description="DP bending rigidity "
+                       "k_b/(g rho sigma_avg^5)")
+    E_c: float = Field(AUTHORS_CODE.units.contact_energy(AUTHORS_CODE.kint), gt=0,
+                       allow_inf_nan=False, description="DP vertex-contact energy "
+                       "eps_c/(g rho sigma_avg^3); default 116 = the authors' kint = 10")
+    n_vertices: StrictInt = Field(16, ge=3, description="DP vertices per ring (seed: 16)")
+    edge_width: float = Field(0.2, gt=0, le=1, description="dp_smooth: edge thickness in "
+                              "units of l0 (the authors' code: 0.2)")
 
     @model_validator(mode="after")
     def _check(self) -> "HopperSection":
@@ -305,14 +322,23 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     from grainflow.models.soft import SoftLaw
     from grainflow.state import ParticleState
     from grainflow.walls import Cylinder, Hopper2D, PlateWithHole, WallForce
+    from grainflow.engine.deformable import ShapeForce
+    from grainflow.engine.dp_edges import EdgeContacts
+    from grainflow.insertion.dp_bodies import add_rings
+    from grainflow.rings import RING_VERTEX, rest_length, ring_table
 
     if dim not in (2, 3):
         raise ValueError(f"dim: {dim!r}; the hopper scenarios are 2D or 3D")
     n, width = _defaults(section, dim)
     rng = np.random.default_rng(seed)
     sizes = Bidisperse(SIGMA_SMALL, DIAMETER_RATIO)
-    radii = sizes.radii(n, rng)
-    r_max = sizes.max_radius
+    dp = section.particles != "sp"
+    if dp and dim != 2:
+        raise ValueError("hopper.particles: deformable particles are 2D; use scenario "
+                         "hopper2d or particles = 'sp'")
+    extent = _ring_extent(section) if dp else 1.0  # rings: see _ring_extent
+    radii = sizes.radii(n, rng) * extent
+    r_max = sizes.max_radius * extent
     fill = section.fill_fraction if dim == 2 else 0.6 * section.fill_fraction
     total = float(particle_volume(radii, dim).sum())
     w = section.orifice_width
@@ -337,23 +363,47 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         box = Box(lo=np.array([-radius, -radius, -10.0]), hi=np.array([radius, radius, top]),
                   periodic=(False, False, False))
     x, r = random_fill(region, n, radii, rng, max_attempts=100_000)
+    r = r / extent
+    types = (r > 0.5).astype(np.int32)  # 0 small, 1 large
     state = ParticleState(dim, box)
-    state.add_particles(x, r, density=1.0, type=(r > 0.5).astype(np.int32))  # 0 small, 1 large
+    if dp:
+        add_rings(state, x, np.pi * r**2, n_vertices=section.n_vertices, type=types,
+                  contact=section.particles.removeprefix("dp_"), edge_width=section.edge_width,
+                  rng=rng)
+    else:
+        state.add_particles(x, r, density=1.0, type=types)
 
     options = section.resolved_options()
     friction = dissipation(section, dim)
-    scales = options["stiffness"]
+    scales = "constant" if dp else options["stiffness"]
     # with 'diameter' the wall partner's sigma is r_m, so eps_w,m = epsilon r_m = E_w sigma_m
     wall_epsilon = options["E_w"] * (2.0 if scales == "diameter" else 1.0)
+    if dp and section.E_w is None:  # seed 003: K_w = K_c for deformable particles
+        wall_epsilon = section.E_c
     law = SoftLaw(n_types=3)
     for ti, tj in ((0, 0), (0, 1), (1, 1)):
-        law.set_pair(ti, tj, epsilon=options["E_sp"], epsilon_scales=scales, mu_k=friction.mu,
-                     kinetic_on=options["friction_on"])
+        law.set_pair(ti, tj, epsilon=section.E_c if dp else options["E_sp"],
+                     epsilon_scales=scales, mu_k=friction.mu, kinetic_on=options["friction_on"])
     for ti in (0, 1, WALL_TYPE):
         law.set_pair(ti, WALL_TYPE, epsilon=wall_epsilon, epsilon_scales=scales, mu_k=0.0)
-    sim = Simulation(state, 1.0, law, skin=skin, sort_every=sort_every,
+    smooth = section.particles == "dp_smooth"
+    if dp and skin is None:
+        # a quarter of the mean rest edge: the default (a fifth of the mean radius, here the
+        # vertex's) would rebuild the list every few steps while the rings fall, for 30 %
+        # more speed (rough) at 1.35 times the listed pairs
+        skin = 0.25 * float(np.mean(rest_length(np.pi * r**2, section.n_vertices)))
+    sim = Simulation(state, 1.0, None if smooth else law, skin=skin, sort_every=sort_every,
                      check_every=check_every, max_overlap_fraction=max_overlap_fraction,
                      seed=seed)
+    if dp:
+        sim.add_force(ShapeForce(section.K_a, section.K_l, section.K_b,
+                                 n_vertices=section.n_vertices))
+    if smooth:
+        # the initial fall stretches soft rings' edges on impact (K_l = 10: by more than a
+        # third at lambda = 0); the list reaches twice the longest rest edge
+        sim.add_force(EdgeContacts(section.E_c, mu_k=friction.mu,
+                                   kinetic_on=options["friction_on"],
+                                   n_vertices=section.n_vertices, reach_factor=2.0))
     sim.add_force(WallForce(walls, law, WALL_TYPE))
     g = np.zeros(dim)
     g[-1] = -1.0
@@ -361,8 +411,9 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     if friction.drag > 0:
         if friction.per_mass:
             sim.add_force(Drag(friction.drag, per_mass=True))
-        else:
-            sim.add_force(Drag(options["drag_factor"] * friction.drag))
+        else:  # DP: seed eq. 11's -zeta v on each vertex is drag_factor/N_v of the grain's
+            per_body = section.n_vertices if dp else 1
+            sim.add_force(Drag(options["drag_factor"] * friction.drag / per_body))
     lid = None
     if options["lid_time"] > 0:
         lid = sim.add_force(WallForce([_lid_wall(dim, w)], law, WALL_TYPE))
@@ -376,11 +427,27 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         lanes=AUTHORS_CODE.lanes,  # lift and lane reach: the authors' (reinsertion defaults)
         inside=_inside_funnel(width, w, section.theta_w) if dim == 2 else None)
     updater.setup_state(sim.context)
+    if dp:
+        body, index = ring_table(state.body, state.arrays[RING_VERTEX], section.n_vertices)
+        updater = RingReinsertion(updater, section.n_vertices,
+                                  dict(zip(body.tolist(), np.pi * r**2)))
     sim.add_updater(updater, section.reinsert_every)
     if lid is not None:
         sim.add_updater(HopperLid(sim, lid, options["lid_time"]),
                         max(1, math.ceil(options["lid_time"] / sim.dt)))
     return sim
+
+
+def _ring_extent(section: HopperSection) -> float:
+    """Radius of the disk a ring is placed in by the random fill, over the radius sigma/2 of
+    its area-equivalent disk: the regular polygon's circumradius plus 2 % (no vertex of one
+    ring can then lie inside another ring, where nothing would push it out). Vertex disks of
+    neighbouring rings may overlap; FIRE removes that (:func:`prepare`). A fill of whole
+    outer disks (circumradius plus vertex radius) would start rough rings at a ring-area
+    fraction of 0.31 instead of 0.42, a pile that takes tens of t0 to settle at the drag
+    limit's terminal speed of 0.5 sigma_avg/t0."""
+    nv = section.n_vertices
+    return math.sqrt(2.0 * math.pi / (nv * math.sin(2.0 * math.pi / nv))) + 0.02
 
 
 def _lid_wall(dim: int, w: float) -> Any:
@@ -489,8 +556,9 @@ def _funnel_fill(W: float, w: float, theta_deg: float, r_max: float,
 def hopper_updater(sim: "Simulation") -> HopperReinsertion:
     """The reinsertion updater of a hopper simulation (it holds the crossing events)."""
     for scheduled in sim.updaters:
-        if isinstance(scheduled.owner, HopperReinsertion):
-            return scheduled.owner
+        owner = getattr(scheduled.owner, "inner", scheduled.owner)  # rings: RingReinsertion
+        if isinstance(owner, HopperReinsertion):
+            return owner
     raise ValueError("simulation: has no HopperReinsertion updater; not a hopper run")
 
 

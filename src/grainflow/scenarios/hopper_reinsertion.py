@@ -243,7 +243,9 @@ class HopperReinsertion(Updater):
         st = ctx.state
         self._times.extend([ctx.time] * index.size)
         self._ids.extend(st.id[index].tolist())
-        self._sizes.extend(grain_size(st.radius[index], self.dim).tolist())
+        sizes = (st.event_size(index) if hasattr(st, "event_size")  # rings: their area
+                 else grain_size(st.radius[index], self.dim))
+        self._sizes.extend(np.asarray(sizes).tolist())
 
     def _contact_numbers(self, ctx: UpdateContext) -> np.ndarray:
         """Per grain, the number of grains it touches or nearly touches (surface gap below

@@ -77,6 +77,11 @@ class CodeUnits:
         return self.mass * self.acceleration
 
     @property
+    def energy(self) -> float:
+        """Our energy unit g rho sigma_avg^3 (weight times diameter) in code energy."""
+        return self.force * self.length
+
+    @property
     def damping(self) -> float:
         """mu0 = zeta0 = rho sigma_avg^2 / t0 (force per velocity)."""
         return self.mass / self.time
@@ -103,6 +108,11 @@ class CodeUnits:
         """E_w: eps_w of a grain of diameter sigma_avg (wall force scale K_w/F times 1/2)."""
         return 0.5 * K_w / self.force
 
+    def contact_energy(self, kint: float) -> float:
+        """E_c of the DP vertex contacts: the code's energy scale ``kint`` (its vertex
+        energy ``(kint/2)(1 - d/sigma)^2``) over our energy unit."""
+        return kint / self.energy
+
     def duration(self, t_code: float) -> float:
         """A code time in t0."""
         return t_code / self.time
@@ -122,7 +132,8 @@ class CodeUnits:
 class AuthorsCode:
     """The code's committed values (docs/hopper_study.md, "Second pass"): friction limit mu = 10 (b = 0), drag limit
     b = 0.1 (mu = 0), spK = 10, K_w = 100, dt = 0.005, the orifice closed for 1200 steps, a
-    grain counted and moved ~2.5 of its diameters past the orifice, 28 reinsertion lanes."""
+    grain counted and moved ~2.5 of its diameters past the orifice, 28 reinsertion lanes, and
+    the DP vertex-contact energy kint = 10 (E_c = 116 in our units)."""
 
     units: CodeUnits = CodeUnits()
     mu_limit: float = 10.0
@@ -133,6 +144,7 @@ class AuthorsCode:
     lid_steps: int = 1200
     count_depth: float = 2.5
     lanes: int = 28
+    kint: float = 10.0
 
     @property
     def lid_time(self) -> float:

@@ -238,7 +238,8 @@ def _sigmoids(fits: dict[float, dict[str, Any]], dim: int) -> dict[str, Any]:
     return out
 
 
-def _cell(fit: Any, attr: str) -> str:
+def fit_cell(fit: Any, attr: str) -> str:
+    """One table cell: the value with its error, "(fixed)" or "(at bound)" as it applies."""
     if fit is None:
         return "–"
     value = getattr(fit, attr)
@@ -314,8 +315,8 @@ def _seed_table(plan: AuthorsPlan, fits: dict,
 
     def row(label: str, name: str, lam: float, attr: str, seed: Any) -> None:
         f = fits.get(name, {}).get((lam, None, None), {})
-        lines.append(f"| {label} | {seed} | {_cell(f.get('free'), attr)} | "
-                     f"{_cell(f.get('fixed'), attr)} | {_cell(f.get('bounded'), attr)} |")
+        lines.append(f"| {label} | {seed} | {fit_cell(f.get('free'), attr)} | "
+                     f"{fit_cell(f.get('fixed'), attr)} | {fit_cell(f.get('bounded'), attr)} |")
 
     for dim, name in ((2, "q2d"), (3, "q3d")):
         for lam in (0.0, math.inf):
@@ -357,9 +358,9 @@ def _probe_table(plan: AuthorsPlan, fits: dict, results: dict) -> list[str]:
         key = (0.0, None, None)
         f = fits.get(name, {}).get(key, {})
         cost = results.get(name, {}).get(key, Series()).cpu
-        lines.append(f"| {labels[name]} | {_cell(f.get('free'), 'beta')} | "
-                     f"{_cell(f.get('free'), 'k')} | {_cell(f.get('free'), 'C')} | "
-                     f"{_cell(f.get('bounded'), 'beta')} | {cost:.0f} |")
+        lines.append(f"| {labels[name]} | {fit_cell(f.get('free'), 'beta')} | "
+                     f"{fit_cell(f.get('free'), 'k')} | {fit_cell(f.get('free'), 'C')} | "
+                     f"{fit_cell(f.get('bounded'), 'beta')} | {cost:.0f} |")
     return lines
 
 
@@ -377,8 +378,8 @@ def _fits_table(fits: dict) -> list[str]:
                 f = three.get(kind)
                 if f is not None:
                     lines.append(f"| {name} | {_key_cells(key)} | {kind} | {f.x.min():g}–"
-                                 f"{f.x.max():g} ({f.x.size}) | {_cell(f, 'C')} | "
-                                 f"{_cell(f, 'k')} | {_cell(f, 'beta')} | {_chi(f)} |")
+                                 f"{f.x.max():g} ({f.x.size}) | {fit_cell(f, 'C')} | "
+                                 f"{fit_cell(f, 'k')} | {fit_cell(f, 'beta')} | {_chi(f)} |")
     return lines
 
 

@@ -99,6 +99,7 @@ def _run_info(rundir: Path) -> dict[str, Any]:
         data = tomllib.loads(cfg.read_text())
         info["dim"] = data.get("dim")
         info["orifice_width"] = data.get("hopper", {}).get("orifice_width")
+        info["particles"] = data.get("hopper", {}).get("particles", "sp")
         info["t_end"] = None
     summary = rundir / "summary.json"
     if summary.is_file():
@@ -119,7 +120,8 @@ def flow_summary(rundir: str | Path) -> dict[str, float]:
     ``t_start``/``t_end``, ``w`` (from config.toml) and the run's ``wall_time_s``. With saved
     frames (``frames.h5``) also ``Q_prime``/``Q_prime_err``, the overlap-corrected rate of
     seed Appendix B, from the number density in the 2w x w region above the orifice over the
-    frames of the steady window. Pure function of files in ``rundir``.
+    frames of the steady window (soft particles only: deformable rings keep their area).
+    Pure function of files in ``rundir``.
     """
     from grainflow.analysis.hopper import flow_rate_from_events
 
@@ -137,7 +139,10 @@ def flow_summary(rundir: str | Path) -> dict[str, float]:
         out["w"] = float(info["orifice_width"])
     if info.get("wall_time_s") is not None:
         out["wall_time_s"] = float(info["wall_time_s"])
-    if (rundir / "frames.h5").is_file() and info.get("orifice_width") and info.get("dim"):
+    # Q' corrects for the overlaps of soft particles; rings keep their area (and their
+    # frames hold vertices, not grains)
+    if ((rundir / "frames.h5").is_file() and info.get("orifice_width") and info.get("dim")
+            and info.get("particles", "sp") == "sp"):
         out.update(_overlap_corrected(rundir, flow, int(info["dim"]), float(info["orifice_width"])))
     return out
 

@@ -1,0 +1,235 @@
+"""Smooth contacts between 2D deformable rings (SPEC M6; seed 003 Appendix A, eq. 9, 12):
+compiled kernels.
+
+Every ring is a closed polygon of vertex particles (:mod:`grainflow.rings`); ``nxt[i]`` and
+``prv[i]`` are the next and previous vertex of particle ``i`` in its ring (-1 for a particle
+in no ring). A vertex ``p`` of one ring meets edge ``(a, b = nxt[a])`` of another, with
+``z = prv[a]`` the start of the previous edge, ``e = r_b - r_a`` and
+
+.. math::  t = \\frac{(\\mathbf r_p - \\mathbf r_a)\\cdot\\mathbf e}{|\\mathbf e|^2}.
+
+Seed 003 Appendix A: "if P between r_i and r_i+1 then the normal distance, otherwise
+|r_i - r_j|". Our precise reading (:func:`edge_term`):
+
+* ``0 <= t <= 1`` (*strip*): ``d`` is the perpendicular distance from ``p`` to the line
+  ``ab``, the closest point ``q = r_a + t e``;
+* ``t < 0`` and ``p`` also beyond the end of the previous edge ``(z, a)``
+  (``t_prev = (r_p - r_z).(r_a - r_z)/|r_a - r_z|^2 > 1``, which is
+  ``(r_p - r_a).(r_a - r_z) > 0``): ``p`` is in the outer wedge of the corner ``a``
+  (*end cap*), ``d = |r_p - r_a|``, ``q = r_a`` (``t`` is then taken as 0);
+* otherwise this (vertex, edge) pair has no term.
+
+Near a convex corner every outside point so gets exactly one term, and the energy is
+continuous across the strip/wedge boundaries (at ``t = 0`` the perpendicular distance is
+``|r_p - r_a|``, at ``t_prev = 1`` the distance to the previous edge's line is too). At a
+reflex (concave) corner the two edges' strips overlap outside the ring, and a point there
+gets two terms, one per edge; each ends at its strip's end, where its distance is
+``|r_p - r_a|``, so there the energy steps by ``(epsilon/2)(1 - |r_p - r_a|/sigma)^2``
+(rings with bending rigidity keep their corners convex in ordinary collisions).
+
+With ``sigma = r_p + r_a`` (the sum of the half-thicknesses: the radii of ``p`` and of the
+edge's start vertex) each term with ``d < sigma`` has the harmonic energy of the project's
+SP model (seed 003 eq. 9)
+
+.. math::  U = \\frac{\\epsilon}{2}\\left(1 - \\frac{d}{\\sigma}\\right)^2,
+           \\qquad \\mathbf F_p = \\frac{\\epsilon}{\\sigma}\\left(1 - \\frac{d}{\\sigma}
+           \\right)\\hat n, \\quad \\hat n = \\frac{\\mathbf r_p - \\mathbf q}{d},
+
+and the reaction ``-F_p`` is split by lever arm, ``-(1 - t) F_p`` on ``a`` and ``-t F_p``
+on ``b`` (all on ``a`` at an end cap): since ``q`` minimises the distance, ``d`` has the
+gradients ``n``, ``-(1 - t) n``, ``-t n`` in ``r_p``, ``r_a``, ``r_b``, so these are exactly
+``-grad U``. A term with ``d = 0`` (``p`` on the edge's line) has no direction and no force.
+
+Kinetic friction (seed 003 eq. 12, the edge's velocity interpolated at the contact point):
+``v_q = (1 - t) v_a + t v_b`` and ``F_mu = -mu_k (v_p - v_q)`` on ``p``, or only the part of
+``v_p - v_q`` perpendicular to ``n`` (``tangential``, the authors' production setting); its
+reaction is split by lever arm too.
+
+Candidates come from the half Verlet list: for a listed pair ``(i, j)`` of vertices of two
+rings both terms are evaluated, term 0 (``p = j``, edge starting at ``i``) and term 1
+(``p = i``, edge starting at ``j``). Every (vertex, edge) pair within reach is evaluated
+exactly once, through the listed pair of the vertex and the edge's start.
+
+Determinism: :func:`edge_pair_terms` (parallel over the list's rows) writes each term's
+force on ``p`` and its ``t`` into the pair's slot, ``slot[k] = (f0x, f0y, t0, f1x, f1y, t1)``,
+and touches nothing else; :func:`gather_edge_forces` (parallel over particles) then sums for
+each particle, in a fixed order, the slots that touch it: its row, its column (in the
+transpose's ascending order), and its previous vertex's row and column (the edges it ends).
+Each particle's sum is written by one thread in an order that does not depend on the thread
+count, so forces are bitwise the same for any number of threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from grainflow.kernels.neighbors import minimum_image
+
+#: ``kind`` of a (vertex, edge) term: no term, perpendicular (strip), end cap (wedge).
+NONE, STRIP, CAP = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def _vec(x, i, j, box_len, periodic):
+    """Minimum-image vector ``r_j - r_i`` (2D)."""
+    return (minimum_image(x[j, 0] - x[i, 0], box_len[0], periodic[0]),
+            minimum_image(x[j, 1] - x[i, 1], box_len[1], periodic[1]))
+
+
+@njit(cache=True, inline="always")
+def edge_term(x, p, a, b, z, box_len, periodic):
+    """Closest point of vertex ``p`` on edge ``(a, b)`` by the module's rule (``z``: start
+    of the previous edge): ``(kind, t, rx, ry)`` with ``(rx, ry) = r_p - q``."""
+    ex, ey = _vec(x, a, b, box_len, periodic)
+    wx, wy = _vec(x, a, p, box_len, periodic)
+    t = (wx * ex + wy * ey) / (ex * ex + ey * ey)
+    if t > 1.0:
+        return NONE, 0.0, 0.0, 0.0
+    if t >= 0.0:
+        return STRIP, t, wx - t * ex, wy - t * ey
+    fx, fy = _vec(x, z, a, box_len, periodic)
+    if wx * fx + wy * fy > 0.0:  # t_prev > 1: the outer wedge of corner a
+        return CAP, 0.0, wx, wy
+    return NONE, 0.0, 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def term_force(eps, mu, tangential, x, v, radius, p, a, b, z, box_len, periodic):
+    """One (vertex ``p``, edge ``(a, b)``) term: ``(kind, t, d, sigma, rx, ry, fx, fy)``
+    with the force ``(fx, fy)`` on ``p`` (harmonic repulsion and kinetic friction);
+    ``kind = NONE`` where there is no contact (``d >= sigma`` or ``d = 0`` too)."""
+    kind, t, rx, ry = edge_term(x, p, a, b, z, box_len, periodic)
+    sigma = radius[p] + radius[a]
+    d2 = rx * rx + ry * ry
+    if kind == NONE or d2 >= sigma * sigma or d2 == 0.0:
+        return NONE, 0.0, 0.0, sigma, 0.0, 0.0, 0.0, 0.0
+    d = np.sqrt(d2)
+    c = eps / sigma * (1.0 - d / sigma) / d
+    fx = c * rx
+    fy = c * ry
+    if mu > 0.0:
+        dvx = v[p, 0] - (1.0 - t) * v[a, 0] - t * v[b, 0]
+        dvy = v[p, 1] - (1.0 - t) * v[a, 1] - t * v[b, 1]
+        if tangential:
+            vn = (dvx * rx + dvy * ry) / d2
+            dvx -= vn * rx
+            dvy -= vn * ry
+        fx -= mu * dvx
+        fy -= mu * dvy
+    return kind, t, d, sigma, rx, ry, fx, fy
+
+
+@njit(cache=True, parallel=True)
+def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, box_len,
+                    periodic, slot):
+    """Pass 1: both terms of every listed pair ``k = (i, j)`` into
+    ``slot[k] = (f0x, f0y, t0, f1x, f1y, t1)`` (term 0: ``p = j`` on the edge starting at
+    ``i``; term 1: ``p = i`` on the edge starting at ``j``); zeros where there is no term
+    (pairs with a particle in no ring included). Each row writes only its own slots."""
+    n = row_ptr.shape[0] - 1
+    for i in prange(n):
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            j = nbr[k]
+            for h in range(6):
+                slot[k, h] = 0.0
+            if nxt[i] < 0 or nxt[j] < 0:
+                continue
+            kind, t, d, sigma, rx, ry, fx, fy = term_force(
+                eps, mu, tangential, x, v, radius, j, i, nxt[i], prv[i], box_len, periodic)
+            if kind != NONE:
+                slot[k, 0] = fx
+                slot[k, 1] = fy
+                slot[k, 2] = t
+            kind, t, d, sigma, rx, ry, fx, fy = term_force(
+                eps, mu, tangential, x, v, radius, i, j, nxt[j], prv[j], box_len, periodic)
+            if kind != NONE:
+                slot[k, 3] = fx
+                slot[k, 4] = fy
+                slot[k, 5] = t
+
+
+@njit(cache=True, parallel=True)
+def gather_edge_forces(nxt, prv, frozen, row_ptr, col_ptr, col_pair, slot, x, box_len,
+                       periodic, force):
+    """Pass 2: add to every ring vertex ``m`` (unless frozen) the slots that touch it, in
+    this fixed order: its row (``+F`` of term 1 as ``p``, ``-(1 - t) F`` of term 0 as
+    ``a``), its column (``+F`` of term 0, ``-(1 - t) F`` of term 1), then the row and column
+    of ``prv[m]`` (``-t F`` as ``b`` of the edge ending at ``m``). Returns the squared
+    length of the longest edge (for the reach check)."""
+    n = row_ptr.shape[0] - 1
+    longest = 0.0
+    for m in prange(n):
+        if nxt[m] < 0:
+            continue
+        ex, ey = _vec(x, m, nxt[m], box_len, periodic)
+        longest = max(longest, ex * ex + ey * ey)
+        if frozen[m]:
+            continue
+        fx = 0.0
+        fy = 0.0
+        for k in range(row_ptr[m], row_ptr[m + 1]):
+            w = 1.0 - slot[k, 2]
+            fx += slot[k, 3] - w * slot[k, 0]
+            fy += slot[k, 4] - w * slot[k, 1]
+        for q in range(col_ptr[m], col_ptr[m + 1]):
+            k = col_pair[q]
+            w = 1.0 - slot[k, 5]
+            fx += slot[k, 0] - w * slot[k, 3]
+            fy += slot[k, 1] - w * slot[k, 4]
+        z = prv[m]
+        for k in range(row_ptr[z], row_ptr[z + 1]):
+            fx -= slot[k, 2] * slot[k, 0]
+            fy -= slot[k, 2] * slot[k, 1]
+        for q in range(col_ptr[z], col_ptr[z + 1]):
+            k = col_pair[q]
+            fx -= slot[k, 5] * slot[k, 3]
+            fy -= slot[k, 5] * slot[k, 4]
+        force[m, 0] += fx
+        force[m, 1] += fy
+    return longest
+
+
+@njit(cache=True)
+def edge_contact_list(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, box_len,
+                      periodic):
+    """Every term in contact now, in list order (term 0 before term 1 of each pair):
+    ``(p, a, b, kind, t, d, sigma, force on p (M, 3), branch r_p - q (M, 3))``.
+    Read-only (analyses, energies, contact listings)."""
+    n = row_ptr.shape[0] - 1
+    cap = 2 * nbr.shape[0]
+    ip = np.empty(cap, dtype=np.int64)
+    ia = np.empty(cap, dtype=np.int64)
+    kinds = np.empty(cap, dtype=np.int8)
+    out = np.empty((cap, 3))  # t, d, sigma
+    f = np.zeros((cap, 3))
+    br = np.zeros((cap, 3))
+    m = 0
+    for i in range(n):
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            j = nbr[k]
+            if nxt[i] < 0 or nxt[j] < 0:
+                continue
+            for s in range(2):
+                p, a = (j, i) if s == 0 else (i, j)
+                kind, t, d, sigma, rx, ry, fx, fy = term_force(
+                    eps, mu, tangential, x, v, radius, p, a, nxt[a], prv[a], box_len,
+                    periodic)
+                if kind == NONE:
+                    continue
+                ip[m] = p
+                ia[m] = a
+                kinds[m] = kind
+                out[m, 0] = t
+                out[m, 1] = d
+                out[m, 2] = sigma
+                f[m, 0] = fx
+                f[m, 1] = fy
+                br[m, 0] = rx
+                br[m, 1] = ry
+                m += 1
+    ib = np.empty(m, dtype=np.int64)
+    for c in range(m):
+        ib[c] = nxt[ia[c]]
+    return (ip[:m].copy(), ia[:m].copy(), ib, kinds[:m].copy(), out[:m, 0].copy(),
+            out[:m, 1].copy(), out[:m, 2].copy(), f[:m].copy(), br[:m].copy())

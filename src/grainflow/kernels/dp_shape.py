@@ -1,0 +1,133 @@
+"""Shape forces of 2D deformable rings (SPEC M6; seed 003 eq. 8 in the normalisation of the
+authors' code, docs/dp.md): compiled kernels.
+
+For a ring of vertices ``r_0 .. r_{N-1}`` (counter-clockwise), edges ``l_i = r_{i+1} - r_i``
+and bends ``b_i = l_i - l_{i-1} = r_{i+1} - 2 r_i + r_{i-1}`` (indices mod N), preferred
+area ``a0`` and edge ``l0``:
+
+.. math::
+
+    U = \\frac{k_a}{2 a_0}(a - a_0)^2 + \\frac{k_l N}{2}\\sum_i (|l_i| - l_0)^2
+        + \\frac{k_b a_0^2}{2 \\pi N l_0^4}\\sum_i |b_i|^2,
+    \\qquad a = \\tfrac12 \\sum_i (x_i y_{i+1} - x_{i+1} y_i),
+
+and the force on vertex ``j``:
+
+.. math::
+
+    F_j = -\\frac{k_a}{a_0}(a - a_0)\\,\\tfrac12 (y_{j+1} - y_{j-1},\\; x_{j-1} - x_{j+1})
+          - k_l N \\left[(|l_{j-1}| - l_0)\\hat l_{j-1} - (|l_j| - l_0)\\hat l_j\\right]
+          - \\frac{k_b a_0^2}{\\pi N l_0^4}(b_{j-1} - 2 b_j + b_{j+1}).
+
+Each ring is one iteration of a parallel loop and writes only its own vertices, always in the
+same order: forces are bitwise the same for any thread count. Edge vectors take the minimum
+image on periodic axes, so a ring may straddle a periodic boundary.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from grainflow.kernels.neighbors import minimum_image
+
+
+@njit(cache=True, inline="always")
+def _edge(x, i, j, box_len, periodic):
+    """Minimum-image vector ``x_j - x_i`` (2D)."""
+    return (minimum_image(x[j, 0] - x[i, 0], box_len[0], periodic[0]),
+            minimum_image(x[j, 1] - x[i, 1], box_len[1], periodic[1]))
+
+
+@njit(cache=True, inline="always")
+def _bending(kb, a0, l0, n):
+    """The bending coefficient ``k_b a0^2 / (pi N l0^4)``."""
+    return kb * a0 * a0 / (np.pi * n * l0**4)
+
+
+@njit(cache=True)
+def _ring_edges(x, ring, box_len, periodic, ex, ey):
+    """Edge vectors of one ring into ``ex``, ``ey``; returns the ring's area, computed from
+    the positions relative to vertex 0 rebuilt from the edges (translation invariant)."""
+    n = ring.shape[0]
+    for s in range(n):
+        ex[s], ey[s] = _edge(x, ring[s], ring[(s + 1) % n], box_len, periodic)
+    area = 0.0
+    px = 0.0
+    py = 0.0
+    for s in range(n):
+        qx = px + ex[s]
+        qy = py + ey[s]
+        area += px * qy - qx * py
+        px = qx
+        py = qy
+    return 0.5 * area
+
+
+@njit(cache=True, parallel=True)
+def shape_forces(index, a0, l0, ka, kl, kb, x, frozen, box_len, periodic, force):
+    """Add the shape force of every ring ``index[r]`` (vertex indices in ring order) with
+    preferred area ``a0[r]`` and edge length ``l0[r]`` to ``force``."""
+    n_rings, n = index.shape
+    for r in prange(n_rings):
+        ring = index[r]
+        ex = np.empty(n)
+        ey = np.empty(n)
+        da = ka / a0[r] * (_ring_edges(x, ring, box_len, periodic, ex, ey) - a0[r])
+        spring = kl * n
+        bend = _bending(kb, a0[r], l0[r], n)
+        for s in range(n):
+            p = (s - 1) % n  # previous edge / vertex
+            q = (s + 1) % n  # next edge / vertex
+            # area: d a / d r_s = (1/2)(y_{s+1} - y_{s-1}, x_{s-1} - x_{s+1})
+            fx = -da * 0.5 * (ey[p] + ey[s])
+            fy = da * 0.5 * (ex[p] + ex[s])
+            # perimeter springs of edges s-1 (ends at s) and s (starts at s)
+            lp = np.sqrt(ex[p] ** 2 + ey[p] ** 2)
+            ls = np.sqrt(ex[s] ** 2 + ey[s] ** 2)
+            cp = spring * (lp - l0[r]) / lp
+            cs = spring * (ls - l0[r]) / ls
+            fx += -cp * ex[p] + cs * ex[s]
+            fy += -cp * ey[p] + cs * ey[s]
+            # bending: b_k = l_k - l_{k-1}; F_s = -c (b_{s-1} - 2 b_s + b_{s+1})
+            pp = (s - 2) % n
+            bx = (ex[p] - ex[pp]) - 2.0 * (ex[s] - ex[p]) + (ex[q] - ex[s])
+            by = (ey[p] - ey[pp]) - 2.0 * (ey[s] - ey[p]) + (ey[q] - ey[s])
+            fx -= bend * bx
+            fy -= bend * by
+            i = ring[s]
+            if not frozen[i]:
+                force[i, 0] += fx
+                force[i, 1] += fy
+
+
+@njit(cache=True)
+def shape_energy(index, a0, l0, ka, kl, kb, x, box_len, periodic):
+    """Total shape energy ``U`` of the rings (the equation of the module docstring)."""
+    n_rings, n = index.shape
+    ex = np.empty(n)
+    ey = np.empty(n)
+    total = 0.0
+    for r in range(n_rings):
+        area = _ring_edges(x, index[r], box_len, periodic, ex, ey)
+        u_l = 0.0
+        u_b = 0.0
+        for s in range(n):
+            p = (s - 1) % n
+            u_l += (np.sqrt(ex[s] ** 2 + ey[s] ** 2) - l0[r]) ** 2
+            u_b += (ex[s] - ex[p]) ** 2 + (ey[s] - ey[p]) ** 2
+        total += (0.5 * ka / a0[r] * (area - a0[r]) ** 2 + 0.5 * kl * n * u_l
+                  + 0.5 * _bending(kb, a0[r], l0[r], n) * u_b)
+    return total
+
+
+@njit(cache=True)
+def ring_areas(index, x, box_len, periodic):
+    """Area of every ring (R,)."""
+    n_rings, n = index.shape
+    ex = np.empty(n)
+    ey = np.empty(n)
+    out = np.empty(n_rings)
+    for r in range(n_rings):
+        out[r] = _ring_edges(x, index[r], box_len, periodic, ex, ey)
+    return out
