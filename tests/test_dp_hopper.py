@@ -101,8 +101,18 @@ def test_dp_study_plan_builds_valid_sweeps_and_a_report(tmp_path):
     assert (tmp_path / "dp_offsets.png").is_file()
     assert (tmp_path / "dp_beverloo_lambda_inf.png").is_file()
     assert any("dp_offsets.png" in line for line in lines)
-    table = "\n".join(hopper_dp._seed_table(DP_REDUCED, fits))
+    table = "\n".join(hopper_dp._seed_table(DP_REDUCED, fits, results))
     for m in DP_REDUCED.models:
         assert m.label in table
     assert "| → ∞ | beta | 1/2 (all DP models) | 0.5 ±" in table
+    # a free fit that converged to nonsense (the smooth series of the reduced study: beta =
+    # 9.2, k = -49.6) is named so, not printed as a result; clogged widths are reported
+    from types import SimpleNamespace
+    assert not hopper_dp.usable(SimpleNamespace(k=-49.6, beta=9.2))
+    assert hopper_dp.usable(SimpleNamespace(k=1.0, beta=1.5))
+    assert hopper_dp._cell(SimpleNamespace(k=-49.6, beta=9.2), "beta").startswith("degenerate")
+    results[DP_REDUCED.models[0].name][(0.0,)].clogged.append(2.0)
+    table = "\n".join(hopper_dp._seed_table(DP_REDUCED, fits, results))
+    assert "clogged here at w = 2" in table
+    assert "0 (clogged)" in "\n".join(hopper_dp._rates_table(DP_REDUCED, results))
     assert math.isinf(DP_REDUCED.lambdas[-1])

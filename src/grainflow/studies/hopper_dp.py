@@ -29,7 +29,7 @@ from grainflow.studies.hopper_authors import AUTHORS_WIDTHS, C_SCALE, fit_cell, 
 from grainflow.studies.hopper_results import Series, collect_series
 
 __all__ = ["DP_FULL", "DP_REDUCED", "DPModel", "DPPlan", "reproduce_dp", "sweep_specs",
-           "three_fits"]
+           "three_fits", "usable"]
 
 
 @dataclass(frozen=True)
@@ -44,6 +44,11 @@ class DPModel:
     @property
     def name(self) -> str:
         return f"{self.particles.removeprefix('dp_')}_Kl{self.K_l:g}_Kb{self.K_b:g}"
+
+    @property
+    def short(self) -> str:
+        """A legend label: ``rough 10/0.1`` (kind, K_l/K_b)."""
+        return f"{self.particles.removeprefix('dp_')} {self.K_l:g}/{self.K_b:g}"
 
     @property
     def label(self) -> str:
@@ -125,6 +130,19 @@ def sweep_specs(plan: DPPlan) -> dict[str, Any]:
                       "hopper.lam": list(m.lambdas)}}) for m in plan.models}
 
 
+def usable(fit: Any, dim: int = 2) -> bool:
+    """Whether a Beverloo fit is physical: k >= 0 and beta <= d + 1 (a free fit to four
+    noisy widths can converge to beta = 9, k = -50, which describes nothing)."""
+    return fit is not None and fit.k >= 0 and fit.beta <= dim + 1
+
+
+def _cell(fit: Any, attr: str) -> str:
+    """:func:`fit_cell`, or what makes the fit degenerate."""
+    if fit is not None and not usable(fit):
+        return f"degenerate (β = {fit.beta:.3g}, k = {fit.k:.3g})"
+    return fit_cell(fit, attr)
+
+
 def _arrow(lam: float) -> str:
     return "0" if lam == 0 else "∞"
 
@@ -136,15 +154,21 @@ def _figures(out: Path, plan: DPPlan, fits: dict, results: dict) -> list[str]:
 
     lines = []
     for lam in plan.lambdas:
-        chosen = [(m, fits[m.name][lam]["free"]) for m in plan.models
-                  if "free" in fits.get(m.name, {}).get(lam, {})]
+        chosen = []  # the free fit, or beta fixed where the free fit is degenerate
+        for m in plan.models:
+            three = fits.get(m.name, {}).get(lam, {})
+            if usable(three.get("free")):
+                chosen.append((m.short, three["free"]))
+            elif three.get("fixed") is not None:
+                chosen.append((f"{m.short} (free fit degenerate)", three["fixed"]))
         if chosen:
             name = f"dp_beverloo_lambda_{_arrow(lam).replace('∞', 'inf')}.png"
             plot_beverloo([f for _, f in chosen], out / name, dim=2,
-                          labels=[m.label for m, _ in chosen])
-            lines.append(f"![Q(w), λ → {_arrow(lam)}]({name})")
-    k_points = {lam: [(m.label, fits[m.name][lam]["free"]) for m in plan.models
-                      if "free" in fits.get(m.name, {}).get(lam, {})] for lam in plan.lambdas}
+                          labels=[label for label, _ in chosen])
+            lines.append(f"![Q(w), λ → {_arrow(lam)}; legend: kind K_l/K_b]({name})")
+    k_points = {lam: [(m.short, fits[m.name][lam]["free"]) for m in plan.models
+                      if usable(fits.get(m.name, {}).get(lam, {}).get("free"))]
+                for lam in plan.lambdas}
     if any(k_points.values()):
         plot_offsets(k_points, out / "dp_offsets.png")
         lines.append("![k and beta of every model](dp_offsets.png)")
@@ -159,20 +183,23 @@ def _figures(out: Path, plan: DPPlan, fits: dict, results: dict) -> list[str]:
     return lines
 
 
-def _seed_table(plan: DPPlan, fits: dict) -> list[str]:
+def _seed_table(plan: DPPlan, fits: dict, results: dict) -> list[str]:
     lines = ["", "## Seed numbers, three fits side by side", "",
              "| model | λ | quantity | seed | free | beta fixed | bounded (paper) |",
              "|---|---|---|---|---|---|---|"]
     for m in plan.models:
         for lam in m.lambdas:
             f = fits.get(m.name, {}).get(lam, {})
+            clogged = results.get(m.name, {}).get((lam,), Series()).clogged
             for attr in ("beta", "k", "C"):
                 seed = (SEED_K.get(m.name, {}).get(lam, "") if attr == "k"
                         else SEED.get((attr, lam), ""))
+                if attr == "k" and clogged:
+                    seed += f"; clogged here at w = {', '.join(f'{w:g}' for w in clogged)}"
                 lines.append(f"| {m.label} | → {_arrow(lam)} | {attr} | {seed} | "
-                             f"{fit_cell(f.get('free'), attr)} | "
-                             f"{fit_cell(f.get('fixed'), attr)} | "
-                             f"{fit_cell(f.get('bounded'), attr)} |")
+                             f"{_cell(f.get('free'), attr)} | "
+                             f"{_cell(f.get('fixed'), attr)} | "
+                             f"{_cell(f.get('bounded'), attr)} |")
     return lines
 
 
@@ -184,8 +211,31 @@ def _rates_table(plan: DPPlan, results: dict) -> list[str]:
             for w, q, e in sorted(zip(ser.w, ser.Q, ser.Q_err)):
                 lines.append(f"| {m.label} | {lam:g} | {w:g} | {q:.4g} | {e:.2g} | "
                              f"{ser.cpu:.0f} |")
+            for w in sorted(ser.clogged):
+                lines.append(f"| {m.label} | {lam:g} | {w:g} | 0 (clogged) | | {ser.cpu:.0f} |")
     total = sum(s.cpu for series in results.values() for s in series.values())
     return lines + ["", f"Total run time of the points: {total:.0f} s.", ""]
+
+
+def _failed_table(out: Path, plan: DPPlan) -> list[str]:
+    """Points whose run or flow analysis failed, with the reason (e.g. too few crossings for
+    the error bar of a slow flow)."""
+    from grainflow.sweep import Catalog
+
+    lines = []
+    for m in plan.models:
+        if not (out / m.name).is_dir():
+            continue
+        with Catalog.in_dir(out / m.name) as catalog:
+            for row in catalog.rows("failed"):
+                reason = (row.error or "").strip().splitlines()
+                lines.append(f"| {m.label} | {float(row.params['hopper.lam']):g} | "
+                             f"{float(row.params['hopper.orifice_width']):g} | "
+                             f"{reason[-1] if reason else 'unknown'} |")
+    if not lines:
+        return []
+    return (["", "## Points without a flow rate", "", "| model | λ | w | reason |",
+             "|---|---|---|---|"] + lines + [""])
 
 
 def reproduce_dp(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
@@ -213,8 +263,9 @@ def reproduce_dp(out_dir: str | Path, *, reduced: bool = True, scheduler: str | 
         lines += ["Reductions relative to the full study:", ""]
         lines += [f"- {r}" for r in plan.reductions] + [""]
     lines += _figures(out, plan, fits, results)
-    lines += _seed_table(plan, fits)
+    lines += _seed_table(plan, fits, results)
     lines += _rates_table(plan, results)
+    lines += _failed_table(out, plan)
     report = out / "report.md"
     report.write_text("\n".join(lines) + "\n")
     return report

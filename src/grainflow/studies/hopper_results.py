@@ -34,6 +34,8 @@ class Series:
     Q_err: list[float] = field(default_factory=list)
     cpu: float = 0.0
     rundirs: list[str] = field(default_factory=list)
+    #: Widths whose run carried no flow (clogged: Q = 0).
+    clogged: list[float] = field(default_factory=list)
 
 
 def collect_series(sweepdir: str | Path, keys: tuple[str, ...] = ("hopper.lam",),
@@ -55,6 +57,8 @@ def collect_series(sweepdir: str | Path, keys: tuple[str, ...] = ("hopper.lam",)
                 s.Q.append(row.summary["Q"])
                 s.Q_err.append(max(row.summary["Q_err"], 1e-12))
                 s.rundirs.append(str(sweepdir / row.rundir))  # catalog paths: sweep-relative
+            else:
+                s.clogged.append(float(p["hopper.orifice_width"]))
             s.cpu += float(row.wall_time or 0.0)
     return series
 
