@@ -39,6 +39,14 @@ velocity; FIRE (``run.minimize = true``, gravity off) removes any overlap left
 (with walls included); then gravity is on at t = 0. Continuous flow and crossing events:
 :mod:`grainflow.scenarios.hopper_reinsertion`.
 
+Deformable particles (SPEC M6, ``particles = "dp_rough" | "dp_smooth"``, 2D only; docs/dp.md):
+each grain is a ring of ``n_vertices`` vertex particles of the same area and type, with the
+shape energy (:class:`~grainflow.engine.deformable.ShapeForce`, K_a, K_l, K_b), vertex-disk
+contacts through the same soft law (rough) or circulo-line edges
+(:class:`~grainflow.engine.dp_edges.EdgeContacts`, smooth) at the energy E_c, walls at E_c,
+drag and kinetic friction per vertex; crossing events and reinsertion move whole rings
+(:mod:`grainflow.scenarios.hopper_rings`).
+
 Time step (the seed's value is illegible, PARAMETERS.md "NF"): ``dt = dt_fraction * t_c``
 with t_c the shortest contact time of the pair law *and* of the walls (a wall contact of a
 small grain, t_c = pi sqrt(m_s r_s^2 / eps_w), is usually the stiffest); ``dt_fraction`` =
@@ -428,7 +436,8 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         inside=_inside_funnel(width, w, section.theta_w) if dim == 2 else None)
     updater.setup_state(sim.context)
     if dp:
-        body, index = ring_table(state.body, state.arrays[RING_VERTEX], section.n_vertices)
+        # ring bodies ascend in fill order, so ring k has the area pi r_k^2 it was built with
+        body, _ = ring_table(state.body, state.arrays[RING_VERTEX], section.n_vertices)
         updater = RingReinsertion(updater, section.n_vertices,
                                   dict(zip(body.tolist(), np.pi * r**2)))
     sim.add_updater(updater, section.reinsert_every)
