@@ -254,3 +254,20 @@ def test_ring_falling_on_a_wall_bounces_and_comes_to_rest():
     lowest = st.x[:, 1].min()
     assert r * 0.95 < lowest < r
     assert polygon_area(st.x[_ring(st), :2]) == pytest.approx(A_SMALL, rel=1e-2)
+
+
+def test_state_ring_table_is_shared_until_the_particles_change():
+    """The shape force, the smooth contacts and the ring reinsertion share one ring table per
+    particle-set generation; adding a ring (or re-sorting) gives a new one."""
+    from grainflow.rings import state_ring_table
+
+    st = _state()
+    add_rings(st, [[0.0, 0.0]], [A_SMALL], n_vertices=N_V)
+    first = state_ring_table(st, N_V)
+    assert state_ring_table(st, N_V) is first
+    add_rings(st, [[3.0, 0.0]], [A_SMALL], n_vertices=N_V)
+    second = state_ring_table(st, N_V)
+    assert second is not first and second[1].shape == (2, N_V)
+    st.reindex(np.arange(st.n)[::-1].copy())
+    np.testing.assert_array_equal(state_ring_table(st, N_V)[1],
+                                  ring_table(st.body, st.arrays[RING_VERTEX], N_V)[1])

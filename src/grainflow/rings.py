@@ -18,6 +18,9 @@ This module is data only (numpy, no engine), like :mod:`grainflow.frame`; frames
 
 from __future__ import annotations
 
+import weakref
+from typing import Any
+
 import numpy as np
 
 from grainflow.frame import Frame
@@ -60,6 +63,25 @@ def ring_table(body: np.ndarray, ring_vertex: np.ndarray,
         raise ValueError(f"rings {bad}: not {nv} distinct vertices each; a ring is moved, "
                          "added and removed whole")
     return ring_body.astype(np.int64), index
+
+
+#: The last ring table of each state: ``{state: ((generation, n_vertices), table)}``.
+_TABLES: "weakref.WeakKeyDictionary[Any, tuple[tuple[int, int], tuple]]" = (
+    weakref.WeakKeyDictionary())
+
+
+def state_ring_table(state: Any, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`ring_table` of a state's rings, computed once per particle-set ``generation``
+    (the shape force, the smooth contacts and the hopper's ring reinsertion all read it;
+    indices change only when particles are added, removed or re-sorted). The arrays are
+    shared: read them, never write them."""
+    key = (state.generation, int(n_vertices))
+    hit = _TABLES.get(state)
+    if hit is None or hit[0] != key:
+        register(state)
+        hit = _TABLES[state] = (key, ring_table(state.body, state.arrays[RING_VERTEX],
+                                                n_vertices))
+    return hit[1]
 
 
 def frame_rings(frame: Frame) -> tuple[np.ndarray, np.ndarray]:

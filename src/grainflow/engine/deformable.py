@@ -32,7 +32,7 @@ import numpy as np
 from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import Force, ForceContext, TimeScale
 from grainflow.kernels.dp_shape import ring_areas, shape_energy, shape_forces
-from grainflow.rings import RING_VERTEX, register, rest_length, ring_table
+from grainflow.rings import rest_length, state_ring_table
 
 
 def _shape_step(a, time, dt):
@@ -70,10 +70,9 @@ class ShapeForce(Force):
         self._given = {int(b): float(v) for b, v in (a0 or {}).items()}
         if any(not (v > 0 and np.isfinite(v)) for v in self._given.values()):
             raise ValueError("a0: every preferred area must be a positive finite number")
-        #: Body ids of the rings known so far (ascending) and their a0 and l0.
+        #: Body ids of the rings known so far (ascending) and their a0 (l0 follows from a0).
         self.ring_body = np.zeros(0, dtype=np.int64)
         self.a0 = np.zeros(0)
-        self.l0 = np.zeros(0)
         self._generation = -1
         self._index = np.zeros((0, self.n_vertices), dtype=np.int64)
         self._body_now = np.zeros(0, dtype=np.int64)
@@ -82,7 +81,6 @@ class ShapeForce(Force):
 
     # ----------------------------------------------------------------- rings
     def setup(self, ctx: ForceContext) -> None:
-        register(ctx.state)
         self._refresh(ctx)
 
     def _refresh(self, ctx: ForceContext) -> None:
@@ -90,8 +88,7 @@ class ShapeForce(Force):
         st = ctx.state
         if st.generation == self._generation:
             return
-        register(st)
-        body, index = ring_table(st.body, st.arrays[RING_VERTEX], self.n_vertices)
+        body, index = state_ring_table(st, self.n_vertices)
         new = ~np.isin(body, self.ring_body)
         if new.any():
             measured = ring_areas(index[new], st.x, ctx.geometry.length, ctx.geometry.periodic)
@@ -104,12 +101,10 @@ class ShapeForce(Force):
             order = np.argsort(np.concatenate([self.ring_body, body[new]]), kind="stable")
             self.ring_body = np.concatenate([self.ring_body, body[new]])[order]
             self.a0 = np.concatenate([self.a0, a0_new])[order]
-            self.l0 = np.asarray(rest_length(self.a0, self.n_vertices), dtype=float)
-        at = np.searchsorted(self.ring_body, body)
         self._index = index
         self._body_now = body
-        self._a0_now = np.ascontiguousarray(self.a0[at])
-        self._l0_now = np.ascontiguousarray(self.l0[at])
+        self._a0_now = np.ascontiguousarray(self.a0[np.searchsorted(self.ring_body, body)])
+        self._l0_now = np.asarray(rest_length(self._a0_now, self.n_vertices), dtype=float)
         self._generation = st.generation
 
     def _args(self, ctx: ForceContext) -> tuple:
@@ -171,8 +166,8 @@ class ShapeForce(Force):
     def load_state_dict(self, data: dict[str, Any]) -> None:
         self.ring_body = np.asarray(data["ring_body"], dtype=np.int64)
         self.a0 = np.asarray(data["a0"], dtype=np.float64)
-        self.l0 = np.asarray(rest_length(self.a0, self.n_vertices), dtype=float)
         self._generation = -1
 
     def nbytes(self) -> int:
-        return int(self._index.nbytes + self.a0.nbytes * 4)
+        return int(sum(a.nbytes for a in (self._index, self.ring_body, self.a0, self._body_now,
+                                          self._a0_now, self._l0_now)))

@@ -37,7 +37,7 @@ from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeSc
 from grainflow.frame import PAIR
 from grainflow.kernels.dp_edges import edge_contact_list, edge_pair_terms, gather_edge_forces
 from grainflow.kernels.dp_shape import ring_areas
-from grainflow.rings import RING_VERTEX, register, rest_length, ring_table
+from grainflow.rings import rest_length, state_ring_table
 
 KINETIC_ON = ("full", "tangential")
 #: What the compiled step loop raises when an edge outgrows the reach (numba needs a
@@ -109,7 +109,6 @@ class EdgeContacts(Force):
     # ----------------------------------------------------------------- rings
     def setup(self, ctx: ForceContext) -> None:
         """Find the rings and size the reach from their areas (``l0_max``)."""
-        register(ctx.state)
         index = self._refresh(ctx)
         if index.shape[0]:
             g = ctx.geometry
@@ -120,7 +119,7 @@ class EdgeContacts(Force):
         """Next/previous vertex of every particle (-1 outside rings) and the edge thickness
         for the current particle order; returns the (R, N_v) ring table."""
         st = ctx.state
-        _, index = ring_table(st.body, st.arrays[RING_VERTEX], self.n_vertices)
+        _, index = state_ring_table(st, self.n_vertices)
         nxt = np.full(st.n, -1, dtype=np.int64)
         prv = np.full(st.n, -1, dtype=np.int64)
         nxt[index] = np.roll(index, -1, axis=1)

@@ -131,3 +131,34 @@ def ring_areas(index, x, box_len, periodic):
     for r in range(n_rings):
         out[r] = _ring_edges(x, index[r], box_len, periodic, ex, ey)
     return out
+
+
+@njit(cache=True)
+def ring_centres(index, x, v, radius):
+    """Per ring: centroid (mean of its vertices), mean vertex velocity, and outer radius (the
+    largest vertex distance from the centroid plus the largest vertex contact radius), in one
+    pass; positions are taken as they are (no periodic images: for hopper rings)."""
+    n_rings, n = index.shape
+    centre = np.zeros((n_rings, 3))
+    velocity = np.zeros((n_rings, 3))
+    outer = np.zeros(n_rings)
+    for r in range(n_rings):
+        for s in range(n):
+            i = index[r, s]
+            for c in range(3):
+                centre[r, c] += x[i, c]
+                velocity[r, c] += v[i, c]
+        for c in range(3):
+            centre[r, c] /= n
+            velocity[r, c] /= n
+        spread = 0.0
+        contact = 0.0
+        for s in range(n):
+            i = index[r, s]
+            d2 = 0.0
+            for c in range(3):
+                d2 += (x[i, c] - centre[r, c]) ** 2
+            spread = max(spread, d2)
+            contact = max(contact, radius[i])
+        outer[r] = np.sqrt(spread) + contact
+    return centre, velocity, outer

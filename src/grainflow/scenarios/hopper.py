@@ -333,7 +333,7 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     from grainflow.engine.deformable import ShapeForce
     from grainflow.engine.dp_edges import EdgeContacts
     from grainflow.insertion.dp_bodies import add_rings
-    from grainflow.rings import RING_VERTEX, rest_length, ring_table
+    from grainflow.rings import rest_length, state_ring_table
 
     if dim not in (2, 3):
         raise ValueError(f"dim: {dim!r}; the hopper scenarios are 2D or 3D")
@@ -437,7 +437,7 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     updater.setup_state(sim.context)
     if dp:
         # ring bodies ascend in fill order, so ring k has the area pi r_k^2 it was built with
-        body, _ = ring_table(state.body, state.arrays[RING_VERTEX], section.n_vertices)
+        body, _ = state_ring_table(state, section.n_vertices)
         updater = RingReinsertion(updater, section.n_vertices,
                                   dict(zip(body.tolist(), np.pi * r**2)))
     sim.add_updater(updater, section.reinsert_every)

@@ -28,27 +28,25 @@ from typing import Any
 import numpy as np
 
 from grainflow.engine.operations import ForceContext, UpdateContext, Updater
-from grainflow.rings import RING_VERTEX, ring_table
+from grainflow.kernels.dp_shape import ring_centres
+from grainflow.rings import state_ring_table
 from grainflow.scenarios.hopper_reinsertion import OUT_FLAG, HopperReinsertion
 
 
 class _RingGrains:
-    """The rings of a state seen as grains (the attributes HopperReinsertion reads)."""
+    """The rings of a state seen as grains (the attributes HopperReinsertion reads);
+    ``area0`` maps a ring's body id to its counted size."""
 
-    def __init__(self, state: Any, n_vertices: int) -> None:
-        self.body, self.index = ring_table(state.body, state.arrays[RING_VERTEX], n_vertices)
-        vx = state.x[self.index]  # (R, N_v, 3)
-        self.x = vx.mean(axis=1)
-        self.v = state.v[self.index].mean(axis=1)
-        spread = np.linalg.norm(vx - self.x[:, None, :], axis=2).max(axis=1)
-        self.radius = spread + state.radius[self.index].max(axis=1)
+    def __init__(self, state: Any, n_vertices: int, area0: dict[int, float]) -> None:
+        self.body, self.index = state_ring_table(state, n_vertices)
+        self.x, self.v, self.radius = ring_centres(self.index, state.x, state.v, state.radius)
         self.id = self.body
         self.n = int(self.body.size)
-        self.area0 = np.zeros(self.n)  # the counted size of each ring (RingReinsertion)
+        self.area0 = np.array([area0[int(b)] for b in self.body])
         self.arrays = {OUT_FLAG: state.arrays[OUT_FLAG][self.index[:, 0]].copy()}
 
     def event_size(self, index: np.ndarray) -> np.ndarray:
-        """Area counted for rings ``index`` (set by :class:`RingReinsertion`)."""
+        """Area counted for rings ``index``: their preferred area."""
         return self.area0[index]
 
 
@@ -101,8 +99,7 @@ class RingReinsertion(Updater):
         st = ctx.state
         if OUT_FLAG not in st.arrays:
             self.setup_state(ctx)
-        grains = _RingGrains(st, self.n_vertices)
-        grains.area0 = np.array([self.area0[int(b)] for b in grains.body])
+        grains = _RingGrains(st, self.n_vertices, self.area0)
         self.inner.update(_RingContext(ctx, grains))
         flags = st.arrays[OUT_FLAG]
         flags[grains.index] = grains.arrays[OUT_FLAG][:, None]
