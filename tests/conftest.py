@@ -11,6 +11,8 @@ step of a small system 10-50 times slower; the physics does not depend on the th
 
 from __future__ import annotations
 
+import contextlib
+
 from dataclasses import dataclass
 
 import numba
@@ -31,15 +33,22 @@ from grainflow.state import ParticleState
 PEERS = chute_files().data.parent
 
 
-@pytest.fixture
-def numba_one_thread():
-    """Run the test with one numba thread; restore the previous count afterwards."""
+@contextlib.contextmanager
+def one_thread():
+    """One numba thread inside the block; the previous count restored afterwards."""
     before = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
         yield
     finally:
         numba.set_num_threads(before)
+
+
+@pytest.fixture
+def numba_one_thread():
+    """Run the test with one numba thread; restore the previous count afterwards."""
+    with one_thread():
+        yield
 
 
 # --------------------------------------------------------------------------- two grains

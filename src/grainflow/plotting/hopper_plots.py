@@ -16,27 +16,12 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib import colormaps
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from grainflow.analysis.coarse_grain import VelocityProfile
 from grainflow.analysis.hopper import BeverlooFit, FlowRate, SigmoidFit
+from grainflow.plotting.figures import new_figure, save_figure
 
 _MARKERS = "os^Dv<>p*hX"
-_DPI = 150
-
-
-def _new_figure(ncols: int, width: float = 4.2, height: float = 3.5) -> Figure:
-    fig = Figure(figsize=(width * ncols, height), layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _save(fig: Figure, path: str | Path) -> Path:
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=_DPI)
-    return out
 
 
 def _as_list(items: object) -> list:
@@ -77,7 +62,7 @@ def plot_beverloo(
     """
     fit_list = _as_list(fits)
     names = _labels(labels, len(fit_list), "series {}")
-    fig = _new_figure(2)
+    fig = new_figure(2)
     ax_lin, ax_log = fig.subplots(1, 2)
     colours = colormaps["tab10"].colors
     x_lo = []
@@ -116,7 +101,7 @@ def plot_beverloo(
     ax_log.set_ylabel(r"$Q/C$")
     ax_log.legend(fontsize=7, frameon=False)
     ax_log.set_title("(b) collapse", fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_beta_sigmoid(
@@ -132,7 +117,7 @@ def plot_beta_sigmoid(
     """
     fit_list = _as_list(fits)
     names = _labels(labels, len(fit_list), "series {}")
-    fig = _new_figure(1, width=5.0, height=3.8)
+    fig = new_figure(1, width=5.0, height=3.8)
     ax = fig.subplots()
     colours = colormaps["tab10"].colors
     lam_all = np.concatenate([f.lam for f in fit_list])
@@ -153,7 +138,7 @@ def plot_beta_sigmoid(
     ax.set_xlabel(r"$\lambda = \zeta/\mu$")
     ax.set_ylabel(r"Beverloo exponent $\beta$")
     ax.legend(fontsize=7, frameon=False, loc="lower left")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_velocity_profiles(
@@ -184,7 +169,7 @@ def plot_velocity_profiles(
         raise ValueError("profiles/widths: need one orifice width per profile (at least one)")
     if quantity not in ("velocity", "flux"):
         raise ValueError(f"quantity: choose 'velocity' or 'flux', got {quantity!r}")
-    fig = _new_figure(1, width=5.0, height=3.8)
+    fig = new_figure(1, width=5.0, height=3.8)
     ax = fig.subplots()
     order = np.argsort(widths)
     cmap = colormaps["coolwarm"]
@@ -216,7 +201,7 @@ def plot_velocity_profiles(
     what = ("density-normalised" if quantity == "velocity"
             else "seed's $v_g$, not divided by density")
     ax.set_title(f"centre-line speed along gravity ({what})", fontsize=9)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_flow_rate_timeseries(flow: FlowRate, path: str | Path, *, t0: float = 1.0) -> Path:
@@ -226,7 +211,7 @@ def plot_flow_rate_timeseries(flow: FlowRate, path: str | Path, *, t0: float = 1
     slope dN/dt through the window. Right: the binned local rate the MSER rule ran on, with the
     steady rate and its error band.
     """
-    fig = _new_figure(2)
+    fig = new_figure(2)
     ax_n, ax_r = fig.subplots(1, 2)
     t = flow.times / t0
     t_start, t_end = flow.t_start / t0, flow.t_end / t0
@@ -260,7 +245,7 @@ def plot_flow_rate_timeseries(flow: FlowRate, path: str | Path, *, t0: float = 1
     ax_r.set_ylim(bottom=0)
     ax_r.legend(fontsize=7, frameon=False, loc="lower right")
     ax_r.set_title("(b) MSER transient cut", fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_offsets(points: dict[float, Sequence[tuple[str, BeverlooFit]]],
@@ -277,7 +262,7 @@ def plot_offsets(points: dict[float, Sequence[tuple[str, BeverlooFit]]],
         labels += [name for name, _ in series if name not in labels]
     if not labels:
         raise ValueError("points: no fits to draw")
-    fig = _new_figure(2, width=4.8, height=3.8)
+    fig = new_figure(2, width=4.8, height=3.8)
     ax_k, ax_b = fig.subplots(1, 2, sharey=False)
     colours = colormaps["tab10"].colors
     y = np.arange(len(labels))
@@ -300,4 +285,4 @@ def plot_offsets(points: dict[float, Sequence[tuple[str, BeverlooFit]]],
     ax_k.legend(fontsize=7, frameon=False)
     ax_k.set_title("(a) offset k", fontsize=10)
     ax_b.set_title(r"(b) exponent $\beta$ (seed: 3/2 and 1/2)", fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
