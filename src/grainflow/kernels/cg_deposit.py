@@ -276,11 +276,11 @@ def deposit_segments(system, start, end, values, rotate, edges, offsets, counts,
 
 
 @njit(cache=True, parallel=True)
-def line_points(start, end, tensors, nodes, weights, rotate, points, values):
-    """Quadrature points of each branch line and their weighted tensors: point ``p`` of line
-    ``m`` is ``start + nodes[p] (end - start)`` with the tensor ``weights[p] * tensors[m]``,
-    turned into the (r, theta[, z]) basis at the point when ``rotate``. ``points`` (M, P, dim)
-    and ``values`` (M, P, dim * dim) are filled."""
+def line_points(start, end, tensors, nodes, weights, points, values):
+    """Quadrature points of each branch line and their weighted tensors in the (r, theta[, z])
+    basis at the point: point ``p`` of line ``m`` is ``start + nodes[p] (end - start)`` with
+    the tensor ``weights[p] * tensors[m]`` turned into that basis (cylindrical and polar
+    cells). ``points`` (M, P, dim) and ``values`` (M, P, dim * dim) are filled."""
     m_total, dim = start.shape
     n_points = nodes.shape[0]
     for m in prange(m_total):
@@ -291,16 +291,11 @@ def line_points(start, end, tensors, nodes, weights, rotate, points, values):
             for a in range(dim):
                 x[a] = start[m, a] + nodes[p] * (end[m, a] - start[m, a])
                 points[m, p, a] = x[a]
-            if rotate:
-                radial_basis(x, basis)
-                rotate_tensor(basis, tensors, m, rotated)
-                for a in range(dim):
-                    for b in range(dim):
-                        values[m, p, a * dim + b] = weights[p] * rotated[a, b]
-            else:
-                for a in range(dim):
-                    for b in range(dim):
-                        values[m, p, a * dim + b] = weights[p] * tensors[m, a, b]
+            radial_basis(x, basis)
+            rotate_tensor(basis, tensors, m, rotated)
+            for a in range(dim):
+                for b in range(dim):
+                    values[m, p, a * dim + b] = weights[p] * rotated[a, b]
 
 
 @njit(cache=True, inline="always")

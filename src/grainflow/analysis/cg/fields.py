@@ -159,32 +159,55 @@ def _bin_segments(coords, start, end, tensor, periods, n_cells) -> np.ndarray:
     return out.reshape(n_cells, dim * dim)
 
 
-def _smooth(coords, kernel, local, values, periods, n_cells) -> np.ndarray:
-    """Deposit points with a smooth kernel: values (N, F) at local points (N, dim)."""
+def _smooth(coords, kernel, points, weights, values, periods, n_cells) -> np.ndarray:
+    """Deposit lines with a smooth kernel: line ``m`` has local points ``points[m]`` (P, dim)
+    with weights ``weights[m]`` sharing the values ``values[m]`` (a grain is a line of one
+    point of weight 1). Points outside the averaged extents get weight 0; along periodic axes
+    lines are wrapped whole (by their first point) and imaged near the faces; near a
+    cylinder's axis (or a full-turn polar grid's centre) lines get a mirror image at -r."""
+    m, n_points, dim = points.shape
+    weights = weights.copy()
     if isinstance(coords, Cartesian):  # averaged periodic axes: wrap before the extent test
         for a, e in enumerate(coords.edges):
             if e.size == 2 and periods[a] > 0:
-                local = local.copy()
-                local[:, a] = e[0] + np.mod(local[:, a] - e[0], periods[a])
-    q, inside = coords.kernel_space(local)
-    q, values = q[inside], values[inside]
-    resolved = list(coords.resolved)
+                points = points.copy()
+                points[..., a] = e[0] + np.mod(points[..., a] - e[0], periods[a])
+    q, inside = coords.kernel_space(points.reshape(-1, dim))
+    q = q.reshape(m, n_points, -1)
+    weights[~inside.reshape(m, n_points)] = 0.0
     if isinstance(coords, Cartesian):
-        q, values = _wrap_images(q, values, [periods[a] for a in resolved],
-                                 [coords.edges[a][0] for a in resolved], kernel.reach)
+        for axis, a in enumerate(coords.resolved):
+            if periods[a] <= 0:
+                continue
+            lo, period = coords.edges[a][0], periods[a]
+            q = q.copy()
+            q[..., axis] -= np.floor((q[:, :1, axis] - lo) / period) * period
+            near_lo = q[..., axis].min(axis=1) < lo + kernel.reach
+            near_hi = q[..., axis].max(axis=1) >= lo + period - kernel.reach
+            shift = np.zeros(q.shape[-1])
+            shift[axis] = period
+            q = np.concatenate([q, q[near_lo] + shift, q[near_hi] - shift])
+            weights = np.concatenate([weights, weights[near_lo], weights[near_hi]])
+            values = np.concatenate([values, values[near_lo], values[near_hi]])
     if coords.mirrored:
-        near = q[:, 0] < kernel.reach
-        q = np.concatenate([q, q[near] * np.r_[-1.0, np.ones(q.shape[1] - 1)]])
+        near = q[..., 0].min(axis=1) < kernel.reach
+        mirror = q[near].copy()
+        mirror[..., 0] *= -1.0
+        q = np.concatenate([q, mirror])
+        weights = np.concatenate([weights, weights[near]])
         values = np.concatenate([values, values[near]])
     out = np.zeros((n_cells, values.shape[1]))
-    if q.shape[1] == 0:
-        out[:] = values.sum(axis=0)
+    if q.shape[-1] == 0:  # every coordinate averaged: one cell
+        out[:] = (weights.sum(axis=1)[:, None] * values).sum(axis=0)
     elif coords.explicit:
-        cg_deposit.deposit_smooth_points(np.ascontiguousarray(q), np.ascontiguousarray(values),
-                                         coords.sample_points(), kernel.code, kernel.width,
-                                         kernel.reach, kernel.norm(q.shape[1]), out)
+        seen = weights.reshape(-1) != 0.0
+        flat_values = (weights[..., None] * values[:, None, :]).reshape(-1, values.shape[1])
+        cg_deposit.deposit_smooth_points(
+            np.ascontiguousarray(q.reshape(-1, q.shape[-1])[seen]),
+            np.ascontiguousarray(flat_values[seen]), coords.sample_points(), kernel.code,
+            kernel.width, kernel.reach, kernel.norm(q.shape[-1]), out)
     elif q.shape[0] > 0:
-        _deposit_lines(coords, kernel, q[:, None, :], np.ones((q.shape[0], 1)), values, out)
+        _deposit_lines(coords, kernel, q, weights, values, out)
     return out / coords.smooth_divisor().reshape(n_cells, 1)
 
 
@@ -202,71 +225,25 @@ def _deposit_lines(coords, kernel, q, weights, values, out) -> None:
                                     kernel.norm(q.shape[-1]), patch, out)
 
 
-def _wrap_images(q, values, periods, lows, reach):
-    for a, (period, lo) in enumerate(zip(periods, lows)):
-        if period <= 0:
-            continue
-        q = q.copy()
-        q[:, a] = lo + np.mod(q[:, a] - lo, period)
-        low = q[:, a] < lo + reach
-        high = q[:, a] >= lo + period - reach
-        shift = np.zeros(q.shape[1])
-        shift[a] = period
-        q = np.concatenate([q, q[low] + shift, q[high] - shift])
-        values = np.concatenate([values, values[low], values[high]])
-    return q, values
-
-
-def _smooth_lines(coords: Cartesian, kernel, start, end, tensor, periods, n_cells):
-    """Branch lines with a smooth kernel on a Cartesian grid, where a line's tensor is the
-    same at all its quadrature points: :func:`cg_deposit.deposit_smooth_lines`."""
+def _smooth_contacts(coords, kernel, start, end, tensor, periods, n_cells) -> np.ndarray:
+    """Branch lines with a smooth kernel, by Gauss-Legendre points. On a Cartesian grid a
+    line's tensor is the same at all its points (one line of ``line_points`` points); in
+    cylindrical and polar cells it turns with the azimuth, so each point is a line of its own
+    with its rotated tensor (:func:`cg_deposit.line_points`)."""
     nodes, gl_weights = np.polynomial.legendre.leggauss(kernel.line_points)
-    s = 0.5 * (nodes + 1.0)
-    pts = start[:, None, :] + s[None, :, None] * (end - start)[:, None, :]  # (M, n_q, dim)
-    weights = np.broadcast_to(0.5 * gl_weights, pts.shape[:2]).copy()
-    resolved = list(coords.resolved)
-    for a, e in enumerate(coords.edges):
-        if e.size > 2:
-            continue
-        if periods[a] > 0:
-            pts[..., a] = e[0] + np.mod(pts[..., a] - e[0], periods[a])
-        weights[(pts[..., a] < e[0]) | (pts[..., a] >= e[1])] = 0.0
-    values = tensor.reshape(tensor.shape[0], -1)
-    q = pts[..., resolved]
-    for axis, a in enumerate(resolved):  # whole lines wrapped, and their images near faces
-        if periods[a] <= 0:
-            continue
-        lo, period = coords.edges[a][0], periods[a]
-        q = q.copy()
-        q[..., axis] -= np.floor((q[:, :1, axis] - lo) / period) * period
-        near_lo = q[..., axis].min(axis=1) < lo + kernel.reach
-        near_hi = q[..., axis].max(axis=1) >= lo + period - kernel.reach
-        shift = np.zeros(len(resolved))
-        shift[axis] = period
-        q = np.concatenate([q, q[near_lo] + shift, q[near_hi] - shift])
-        weights = np.concatenate([weights, weights[near_lo], weights[near_hi]])
-        values = np.concatenate([values, values[near_lo], values[near_hi]])
-    out = np.zeros((n_cells, values.shape[1]))
-    if not resolved:  # every axis averaged: one cell
-        out[:] = (weights.sum(axis=1)[:, None] * values).sum(axis=0)
-        return out / coords.smooth_divisor().reshape(n_cells, 1)
-    if q.shape[0] > 0:
-        _deposit_lines(coords, kernel, q, weights, values, out)
-    return out / coords.smooth_divisor().reshape(n_cells, 1)
-
-
-def _line_points(start, end, tensor, coords, n_points):
-    """Gauss-Legendre points of each branch line with their weighted tensors, rotated into the
-    (r, theta[, z]) basis at each point for cylindrical and polar grids: (M * P, dim) points
-    and (M * P, dim^2) values."""
-    nodes, weights = np.polynomial.legendre.leggauss(n_points)
+    s, w = 0.5 * (nodes + 1.0), 0.5 * gl_weights
     m, dim = start.shape
-    points = np.empty((m, n_points, dim))
-    values = np.empty((m, n_points, dim * dim))
+    if isinstance(coords, Cartesian):
+        points = start[:, None, :] + s[None, :, None] * (end - start)[:, None, :]
+        weights = np.broadcast_to(w, points.shape[:2])
+        return _smooth(coords, kernel, points, weights, tensor.reshape(m, -1), periods,
+                       n_cells)
+    points = np.empty((m, s.size, dim))
+    values = np.empty((m, s.size, dim * dim))
     cg_deposit.line_points(np.ascontiguousarray(start), np.ascontiguousarray(end),
-                           np.ascontiguousarray(tensor), 0.5 * (nodes + 1.0), 0.5 * weights,
-                           not isinstance(coords, Cartesian), points, values)
-    return points.reshape(-1, dim), values.reshape(-1, dim * dim)
+                           np.ascontiguousarray(tensor), s, w, points, values)
+    return _smooth(coords, kernel, points.reshape(-1, 1, dim), np.ones((m * s.size, 1)),
+                   values.reshape(-1, dim * dim), periods, n_cells)
 
 
 def frame_sums(frame: Frame, coordinates: Coordinates, kernel: Kernel, *,
@@ -285,7 +262,8 @@ def frame_sums(frame: Frame, coordinates: Coordinates, kernel: Kernel, *,
     periods = coordinates.periods(frame.box)
     local, values = _particle_values(frame, coordinates)
     if kernel.smooth:
-        per_grain = _smooth(coordinates, kernel, local, values, periods, n_cells)
+        per_grain = _smooth(coordinates, kernel, local[:, None, :], np.ones((frame.n, 1)),
+                            values, periods, n_cells)
     else:
         per_grain = _bin_particles(coordinates, local, values, periods, n_cells)
         per_grain /= coordinates.cell_volumes().reshape(n_cells, 1)
@@ -301,11 +279,9 @@ def frame_sums(frame: Frame, coordinates: Coordinates, kernel: Kernel, *,
                              "([output] contacts = true), or pass contacts=False for the "
                              "kinetic fields only")
         for name, (start, end, tensor) in _contact_segments(frame, coordinates).items():
-            if kernel.smooth and isinstance(coordinates, Cartesian):
-                sums = _smooth_lines(coordinates, kernel, start, end, tensor, periods, n_cells)
-            elif kernel.smooth:
-                pts, vals = _line_points(start, end, tensor, coordinates, kernel.line_points)
-                sums = _smooth(coordinates, kernel, pts, vals, periods, n_cells)
+            if kernel.smooth:
+                sums = _smooth_contacts(coordinates, kernel, start, end, tensor, periods,
+                                        n_cells)
             else:
                 sums = _bin_segments(coordinates, start, end, tensor, periods, n_cells)
                 sums /= coordinates.cell_volumes().reshape(n_cells, 1)
