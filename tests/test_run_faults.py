@@ -485,3 +485,50 @@ def test_ctrl_c_while_the_program_starts_is_one_line(tmp_path: Path, delay: floa
     assert proc.returncode in (130, -signal.SIGINT, -signum, 2), (proc.returncode, err)
     if proc.returncode != -signum:
         assert len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("interrupted", [True, False])
+def test_an_import_the_interrupt_broke_is_reported_as_the_interrupt(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        interrupted: bool) -> None:
+    """numba's C import turns a KeyboardInterrupt raised inside it into ImportError
+    ("numba._devicearray failed to import", seen in CI): after an interrupt that is
+    "interrupted", exit 130; without one the ImportError is a real failure and propagates."""
+    import grainflow.__main__ as program
+    import grainflow.cli as cli
+    from grainflow import interrupt
+
+    def entry() -> None:
+        if interrupted:
+            try:
+                interrupt._handler(signal.SIGTERM, None)
+            except KeyboardInterrupt:
+                pass
+        raise ImportError("numba._devicearray failed to import")
+
+    monkeypatch.setattr(interrupt, "install", lambda: None)  # keep pytest's own handlers
+    monkeypatch.setattr(interrupt, "_received", [])
+    monkeypatch.setattr(cli, "entry", entry)
+    if interrupted:
+        with pytest.raises(SystemExit) as exit_:
+            program.main()
+        assert exit_.value.code == 130
+        assert capsys.readouterr().err == "error: interrupted\n"
+    else:
+        with pytest.raises(ImportError, match="devicearray"):
+            program.main()
+
+
+def test_a_verb_whose_import_the_interrupt_broke_exits_130(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same inside a verb's own error handling (its lazy imports run there)."""
+    import typer
+
+    import grainflow.cli as cli
+    from grainflow import interrupt
+
+    monkeypatch.setattr(interrupt, "_received", [signal.SIGINT])
+    with pytest.raises(typer.Exit) as exit_:
+        with cli._errors():
+            raise ImportError("numba._devicearray failed to import")
+    assert exit_.value.exit_code == 130

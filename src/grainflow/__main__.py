@@ -4,19 +4,28 @@ a Ctrl-C or a SIGTERM that arrives while the command's modules are still being i
 line, exit code 130, like a Ctrl-C during a run; Python's default for SIGTERM would end the
 process without a word."""
 
-import signal
 import sys
+
+from grainflow import interrupt
 
 
 def main() -> None:
-    signal.signal(signal.SIGTERM, signal.default_int_handler)  # a KeyboardInterrupt
+    interrupt.install()
     try:
         from grainflow.cli import entry
 
         entry()
     except KeyboardInterrupt:  # before entry() handles it (importing, or just after)
-        print("error: interrupted", file=sys.stderr)
-        sys.exit(130)
+        _interrupted()
+    except Exception:  # an import the interrupt broke (numba turns it into an ImportError)
+        if not interrupt.received():
+            raise
+        _interrupted()
+
+
+def _interrupted() -> None:
+    print("error: interrupted", file=sys.stderr)
+    sys.exit(130)
 
 
 if __name__ == "__main__":

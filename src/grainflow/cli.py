@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Optional
 
 import typer
 
-from grainflow import __version__
+from grainflow import __version__, interrupt
 
 if TYPE_CHECKING:
     from grainflow.engine.threads import Threads
@@ -236,6 +236,9 @@ def _errors() -> Iterator[None]:
     except typer.Exit:
         raise
     except Exception as err:  # every failure ends in one line and a non-zero status
+        if interrupt.received():  # an import the start-up interrupt broke
+            typer.echo("error: interrupted", err=True)
+            raise typer.Exit(130) from None
         if _state["debug"]:
             raise
         code = getattr(err, "exit_code", None)
