@@ -147,8 +147,9 @@ def demo(
 @app.command()
 def study(
     name: Annotated[str, typer.Argument(help="Which study: 'hopper' (seed 003, soft "
-                                        "particles) or 'hopper-dp' (seed 003, deformable "
-                                        "rings; docs/dp.md).")],
+                                        "particles), 'hopper-dp' (seed 003, deformable "
+                                        "rings; docs/dp.md) or 'jet' (seed 002, granular "
+                                        "jets; docs/jets.md).")],
     output: Annotated[Path | None, typer.Option("--output", "-o",
                                                 help="Study directory (default: NAME_study).")]
     = None,
@@ -163,12 +164,15 @@ def study(
 ) -> None:
     """Reproduce a seed study through the sweep engine and write its report.md."""
     with _errors():
-        if name not in ("hopper", "hopper-dp"):
-            raise UsageError(f"study: {name!r} is not known; available: hopper, hopper-dp")
+        if name not in ("hopper", "hopper-dp", "jet"):
+            raise UsageError(f"study: {name!r} is not known; available: hopper, hopper-dp, "
+                             "jet")
         if convention not in ("authors", "grainflow"):
             raise UsageError(f"--convention: {convention!r} is not valid; use 'authors' or "
                              "'grainflow'")
-        if name == "hopper-dp":
+        if name == "jet":
+            from grainflow.studies.jet_study import reproduce
+        elif name == "hopper-dp":
             if convention != "authors":
                 raise UsageError("--convention: the DP study runs on the authors' "
                                  "conventions only")

@@ -633,6 +633,8 @@ def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
     except ValueError as err:
         raise ConfigError([str(err)]) from None
     section_data = data.pop(scenario.section, {}) if scenario.section else None
+    if scenario.run_defaults and isinstance(data.get("run", {}), dict):
+        data["run"] = {**scenario.run_defaults, **data.get("run", {})}
     errors = _unused_sections(data, scenario)
     context = {"base_dir": base_dir, "dim": data.get("dim", 3) if data.get("dim") in (2, 3) else 3}
     config: RunConfig | None = None

@@ -49,7 +49,9 @@ class Scenario:
     that validates it (a class, or ``"module:Class"``); ``config.section`` holds the result. ``uses``: the optional generic
     sections (``box``, ``particles``, ``contact``, ``walls``, ``gravity``, ``drag``,
     ``tethers``, ``insert``, ``delete``) the builder reads; any other one in a config is
-    refused so that nothing a user writes is silently ignored.
+    refused so that nothing a user writes is silently ignored. ``run_defaults``: ``[run]``
+    settings the scenario's study uses unless the config sets them (e.g. seed 002's
+    Adams-Bashforth integrator), applied before validation so the saved config shows them.
     """
 
     name: str
@@ -58,6 +60,7 @@ class Scenario:
     model: "type[BaseModel] | str | None" = None
     uses: frozenset[str] = field(default_factory=frozenset)
     description: str = ""
+    run_defaults: dict[str, Any] = field(default_factory=dict)
 
     def build(self, config: Any) -> "Simulation":
         """Import the builder and build the simulation."""

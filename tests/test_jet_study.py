@@ -1,0 +1,77 @@
+"""The jet study's plumbing (seed 002): sweeps, per-run analyses on a real small run, the
+report table's verdicts. The study itself runs with ``grainflow study jet`` (docs/jets.md)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grainflow.studies import jet_study
+from grainflow.studies.jet_study import FULL, REDUCED, SEED, _mean_by, _Table, sweep_specs
+
+
+def test_the_sweeps_of_both_plans_validate_and_cover_the_seed() -> None:
+    for plan in (REDUCED, FULL):
+        specs = sweep_specs(plan)
+        assert set(specs) == {"scatter", "anisotropy", "rheo3d", "rheo2d"}
+        assert specs["scatter"].replicates == plan.replicas
+        assert specs["rheo3d"].base["jet"]["target_diameter"] == 22.0  # D_tar = 22 d
+        assert specs["rheo2d"].base["jet"]["target_diameter"] == pytest.approx(2.2 * 30.0)
+        assert specs["rheo2d"].base["jet"]["sizes"] == "bidisperse"
+        assert specs["rheo3d"].base["output"]["contacts"] is True
+    assert FULL.replicas == 10 and FULL.rheo3d_n == 20_000 and FULL.rheo2d_n == 8000
+    assert FULL.rheo3d_window == (50.0, 100.0) and FULL.rheo2d_window == (180.0, 300.0)
+    assert 0.615 == pytest.approx((2.05**2 - 1) / (2.05**2 + 1), abs=2e-3)  # eps of l = 2.05
+
+
+def test_replica_means_and_errors() -> None:
+    keys, mean, err = _mean_by([1.0, 1.0, 2.0], [0.5, 0.7, 3.0])
+    np.testing.assert_array_equal(keys, [1.0, 2.0])
+    np.testing.assert_allclose(mean, [0.6, 3.0])
+    assert err[0] == pytest.approx(np.std([0.5, 0.7], ddof=1) / math.sqrt(2))
+    assert np.isnan(err[1])
+
+
+def test_table_verdicts_use_the_seed_uncertainty_or_ten_percent() -> None:
+    table = _Table()
+    table.add("phi_s", 0.8345, 0.002, 1.0)  # quoted +-0.001
+    table.add("phi_s", 0.837, 0.002, 1.0)
+    table.add("C0", 1.68 * 1.09, 0.01, 1.0)  # none quoted: 10 %
+    table.add("C0", 1.68 * 1.11, 0.01, 1.0)
+    table.add("C1", None, None, 1.0)
+    verdicts = [row.split("|")[4].strip() for row in table.rows]
+    assert verdicts == ["agrees", "misses", "agrees", "misses", "—"]
+    assert set(SEED) >= {"C0", "C1", "C2", "v2(eps=0.615)", "phi_s", "alpha_s", "mu_s",
+                         "mu_max", "I0", "a (frictional)", "a (frictionless)"}
+
+
+@pytest.fixture(scope="module")
+def small_jet_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from grainflow.runner import run_config
+
+    rundir = tmp_path_factory.mktemp("jet") / "run"
+    config = {"scenario": "jet3d", "dim": 3, "run": {"duration": 20.0},
+              "output": {"thermo_every": 1000, "frames_every": 500, "contacts": True,
+                         "checkpoint_every": 0, "snapshot": False},
+              "jet": {"jet_diameter": 4.5, "target_diameter": 11.25, "n": 400,
+                      "cross_section": "rectangle", "aspect_ratio": 2.05,
+                      "cross_section_area": 16.0}}
+    with pytest.warns(UserWarning, match="tethers"):  # the seed's dt, see docs/jets.md
+        run_config(config, rundir, progress="none")
+    return rundir
+
+
+def test_per_run_analyses_on_a_real_run(small_jet_run: Path) -> None:
+    """A 400-grain jet onto a target 2.5 times wider: the flow leaves as a sheet
+    (psi0 near pi/2 or beyond), and the anisotropy analysis reports the eccentricity."""
+    summary = jet_study.scattering_summary(small_jet_run)
+    assert summary["X"] == pytest.approx(2.5)
+    assert summary["scattered"] > 50
+    assert 1.2 < summary["psi0"] < 2.0
+    assert 0 < summary["psi0_err"] < 0.2
+    aniso = jet_study.anisotropy_summary(small_jet_run)
+    assert aniso["eps"] == pytest.approx(0.6155, abs=1e-3)
+    assert abs(aniso["v2"]) < 0.5 and aniso["v2_err"] > 0
