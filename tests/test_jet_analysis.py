@@ -5,6 +5,7 @@ known."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from math import pi
 
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 
 from grainflow.analysis import jet
 from grainflow.analysis.cg import Cartesian, coarse_grain
-from grainflow.frame import Box, Frame
+from grainflow.frame import ANCHOR, BOND, PAIR, WALL, Box, Contacts, Frame
 from grainflow.plotting.jet_plots import (plot_azimuthal_flux, plot_psi0,
                                           plot_v2_vs_eccentricity)
 
@@ -206,6 +207,340 @@ def test_window_and_grain_selection():
     assert late.psi0 == pytest.approx(1.2, abs=1e-9)
     only_ones = jet.scattering_angle(frames, grains=lambda f: f.type == 1, **kwargs)
     assert only_ones.psi0 == pytest.approx(1.5, abs=1e-9)
+
+
+# --------------------------------------------------------------------------------------------
+# Scattering angle from the force balance on the target (Sec. 4.1.1)
+# --------------------------------------------------------------------------------------------
+
+LAMBDA = 8.0  # grains per unit length of the synthetic jets: 4 (3D) or 2 (2D) per layer
+ID_OFFSET = 100  # particle ids differ from indices, as after deletions
+STEADY = (1.0, 1e9)  # the frames after the initial one (t = 0)
+
+
+def with_ids(frame, contacts=None):
+    return replace(frame, id=frame.id + ID_OFFSET, contacts=contacts)
+
+
+def initial_jet_3d(*, h0=2.0, length=50.0, mass=1.0, u0=1.0):
+    """The undisturbed 3D jet at t = 0: layers of 4 grains every 0.5 d (lambda = 8) from h0,
+    moving at u0 along -z, above the target. Its middle 60 % holds exactly 8 grains per d."""
+    z = h0 + 0.5 * np.arange(int(round(length / 0.5)) + 1)
+    xy = np.array([[0.5, 0.5], [-0.5, 0.5], [0.5, -0.5], [-0.5, -0.5]])
+    pos = np.column_stack([np.tile(xy, (z.size, 1)), np.repeat(z, 4)])
+    vel = np.tile([0.0, 0.0, -u0], (len(pos), 1))
+    pos, vel, types = concat(target_3d(), (pos, vel, 0))
+    frame = make_frame(pos, vel, types=types, mass=mass)
+    return with_ids(frame, Contacts(*(np.zeros(0, np.int64),) * 2, np.zeros((0, 3)),
+                                    np.zeros((0, 3))))
+
+
+def force_frame(wall_force, *, time, step=0, dim=3, anchors=True, extra_rows=True):
+    """Target (type 2) and a few grains, with contacts whose forces on the target along the
+    direction of travel (-z in 3D, -x in 2D) sum to ``wall_force``,
+    and rows that must not count: grain-grain contacts, target-target contacts and bonds,
+    a wall contact, an anchor on a grain. Anchors on the target balance ``wall_force``."""
+    axis = dim - 1 if dim == 3 else 0
+    if dim == 3:
+        t_pos = target_3d()[0]
+    else:
+        t_pos = np.column_stack([np.full(7, -0.5), np.arange(-3.0, 4.0)])
+    g_pos = np.zeros((4, dim))
+    g_pos[:, axis] = 0.5
+    g_pos[:, 1] = [-1.5, -0.5, 0.5, 1.5]
+    pos = np.vstack([t_pos, g_pos])
+    types = np.r_[np.full(len(t_pos), jet.TARGET_TYPE), np.zeros(4)]
+    frame = make_frame(pos, np.zeros_like(pos), types=types, time=time, step=step)
+    ids = frame.id + ID_OFFSET
+    tgt, grn = ids[:len(t_pos)], ids[len(t_pos):]
+
+    def along(f, lateral=0.0):
+        """force of magnitude f along the direction of travel, plus a lateral part"""
+        v = np.zeros(dim)
+        v[axis] = -f
+        v[1] = lateral
+        return v
+
+    rows = [  # (i, j, kind, force on i from j)
+        (tgt[0], grn[0], PAIR, along(0.6 * wall_force, lateral=5.0)),
+        (grn[1], tgt[1], PAIR, -along(0.4 * wall_force)),  # listed on the grain
+    ]
+    if extra_rows:
+        rows += [(grn[0], grn[1], PAIR, along(100.0)), (grn[2], grn[3], PAIR, along(-40.0)),
+                 (tgt[0], tgt[1], PAIR, along(70.0)), (tgt[1], tgt[2], BOND, along(50.0)),
+                 (tgt[2], tgt[3], BOND, along(-20.0)), (tgt[3], 0, WALL, along(30.0)),
+                 (grn[2], -1, ANCHOR, along(1000.0))]
+    if anchors:
+        rows += [(t, -1, ANCHOR, -along(wall_force / len(tgt))) for t in tgt]
+    i, j, kind, force = zip(*rows)
+    contacts = Contacts(np.array(i, np.int64), np.array(j, np.int64), np.array(force),
+                        np.zeros((len(rows), dim)), np.array(kind, np.int8))
+    return with_ids(frame, contacts)
+
+
+def psi_force(psi, j_in=LAMBDA):
+    return j_in * (1.0 - np.cos(psi))
+
+
+def force_series(forces, *, t0=1.0, **kwargs):
+    return [force_frame(f, time=t0 + k, step=k + 1, **kwargs) for k, f in enumerate(forces)]
+
+
+@pytest.mark.parametrize("psi", [0.55, pi / 2, jet.SEED_PSI0_FIT[0], 2.5])
+def test_known_force_and_line_density_give_the_angle(psi):
+    f0 = psi_force(psi)
+    forces = f0 * (1.0 + 0.05 * np.tile([1.0, 1.0, -1.0, -1.0], 5))  # mean f0
+    res = jet.force_balance_angle([initial_jet_3d()] + force_series(forces), window=STEADY)
+    assert res.lambda_ == pytest.approx(LAMBDA) and res.J_in == pytest.approx(LAMBDA)
+    assert res.F_wall == pytest.approx(f0)
+    assert res.ratio == pytest.approx(1.0 - np.cos(psi))
+    assert res.psi0 == pytest.approx(psi, abs=1e-12)
+    assert res.n_frames == 20 and res.n_skipped == 0 and res.blocks == 10
+    assert res.force == "contacts" and res.line_density == "initial"
+    assert res.J_in_err == pytest.approx(0.0, abs=1e-12)  # the uniform lattice: no scatter
+    assert 0 < res.psi0_err < 0.1
+
+
+def test_the_momentum_flux_scales_with_mass_and_u0_squared():
+    f = psi_force(1.2, j_in=LAMBDA * 2.0 * 1.5**2)
+    frames = [initial_jet_3d(mass=2.0, u0=1.5)] + force_series([f] * 4)
+    res = jet.force_balance_angle(frames, u0=1.5, window=STEADY)
+    assert res.lambda_ == pytest.approx(LAMBDA)
+    assert res.J_in == pytest.approx(LAMBDA * 2.0 * 1.5**2)
+    assert res.psi0 == pytest.approx(1.2, abs=1e-12)
+    # the jet moves at 1.5 u0: with u0 = 1 it is not the undisturbed jet
+    with pytest.raises(ValueError, match=r"only 0\.0% of the grains move at u0 n"):
+        jet.force_balance_angle(frames, window=STEADY)
+    # a given line density: lambda m u0^2 with the grains' mass
+    given = jet.force_balance_angle(frames, u0=1.5, line_density=LAMBDA, window=STEADY)
+    assert given.line_density == "given" and given.J_in == pytest.approx(res.J_in)
+    assert given.psi0 == pytest.approx(1.2, abs=1e-12) and given.J_in_err == 0.0
+
+
+def test_grain_contacts_target_bonds_walls_and_anchors_do_not_count():
+    f = psi_force(1.0)
+    frames = [initial_jet_3d()] + force_series([f] * 5)
+    clean = [initial_jet_3d()] + force_series([f] * 5, extra_rows=False, anchors=False)
+    res = jet.force_balance_angle(frames, window=STEADY)
+    assert res.F_wall == pytest.approx(f)
+    assert res.psi0 == pytest.approx(1.0, abs=1e-12)
+    assert jet.force_balance_angle(clean, window=STEADY).F_wall == pytest.approx(f)
+    # only the rows that do not count: no force on the target, psi0 = 0
+    idle = jet.force_balance_angle([initial_jet_3d()] + force_series([0.0] * 3), window=STEADY)
+    assert idle.F_wall == 0.0 and idle.psi0 == 0.0
+    # selections: the same target by a callable; grains that exclude those touching it
+    picked = jet.force_balance_angle(frames, window=STEADY,
+                                     target=lambda fr: fr.type == jet.TARGET_TYPE)
+    assert picked.F_wall == pytest.approx(f)
+    aloof = jet.force_balance_angle(frames, window=STEADY,
+                                    grains=lambda fr: (fr.type == 0) & (fr.position[:, 2] > 1))
+    assert aloof.F_wall == 0.0 and aloof.lambda_ == pytest.approx(LAMBDA)
+    with pytest.raises(ValueError, match="grains: the frame at step 0 .* holds no grains"):
+        jet.force_balance_angle(frames, window=STEADY, line_density=LAMBDA, grains=[1])
+
+
+def test_anchor_forces_balance_the_contact_force():
+    f = psi_force(1.4)
+    frames = [initial_jet_3d()] + force_series([f, 1.1 * f, 0.9 * f])
+    contacts = jet.force_balance_angle(frames, window=STEADY)
+    anchors = jet.force_balance_angle(frames, force="anchors", window=STEADY)
+    assert anchors.force == "anchors"
+    assert anchors.F_wall == pytest.approx(contacts.F_wall)
+    assert anchors.psi0 == pytest.approx(1.4, abs=1e-12)
+    untethered = [initial_jet_3d()] + force_series([f], anchors=False, extra_rows=False)
+    with pytest.raises(ValueError, match="force: 'anchors' needs tether rows"):
+        jet.force_balance_angle(untethered, force="anchors", window=STEADY)
+
+
+def mirrored(frame):
+    """The frame with z -> -z (positions, velocities, forces, branches)."""
+    flip = np.array([1.0, 1.0, -1.0])
+    c = frame.contacts
+    contacts = Contacts(c.i, c.j, c.force * flip, c.branch * flip, c.kind)
+    return replace(frame, position=frame.position * flip, velocity=frame.velocity * flip,
+                   contacts=contacts)
+
+
+def test_the_direction_of_travel_sets_the_sign():
+    f = psi_force(0.8)
+    frames = [initial_jet_3d()] + force_series([f] * 4)
+    # the same jet travelling along +z onto a target below it
+    up = [mirrored(fr) for fr in frames]
+    res = jet.force_balance_angle(up, direction=(0, 0, 2.0), window=STEADY)
+    assert res.psi0 == pytest.approx(0.8, abs=1e-12) and res.lambda_ == pytest.approx(LAMBDA)
+    # a wrong direction: the force along n is negative (and the jet is not undisturbed)
+    with pytest.raises(ValueError, match=r"outside \[0, 2\].*check direction"):
+        jet.force_balance_angle(frames, direction=(0, 0, 1), line_density=LAMBDA,
+                                window=STEADY)
+    with pytest.raises(ValueError, match="line_density: 'initial'"):
+        jet.force_balance_angle(frames, direction=(0, 0, 1), window=STEADY)
+    with pytest.raises(ValueError, match="direction: expected 3 finite components"):
+        jet.force_balance_angle(frames, direction=(-1, 0), window=STEADY)
+
+
+def test_2d_force_balance_along_minus_x():
+    x = 2.0 + 0.25 * np.arange(201)  # 2 grains per layer every 0.25 d: lambda = 8
+    pos = np.column_stack([np.repeat(x, 2), np.tile([-0.5, 0.5], x.size)])
+    first = with_ids(make_frame(pos, np.tile([-1.0, 0.0], (len(pos), 1))),
+                     Contacts(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)),
+                              np.zeros((0, 2))))
+    f = psi_force(pi / 2)
+    frames = [first] + force_series([f] * 6, dim=2)
+    res = jet.force_balance_angle(frames, window=STEADY)
+    assert res.lambda_ == pytest.approx(LAMBDA)
+    assert res.psi0 == pytest.approx(pi / 2, abs=1e-12)
+    anchors = jet.force_balance_angle(frames, force="anchors", window=STEADY)
+    assert anchors.psi0 == pytest.approx(pi / 2)
+    # a jet travelling along +x
+    flip = np.array([-1.0, 1.0])
+    back = [replace(fr, position=fr.position * flip, velocity=fr.velocity * flip,
+                    contacts=Contacts(fr.contacts.i, fr.contacts.j, fr.contacts.force * flip,
+                                      fr.contacts.branch * flip, fr.contacts.kind))
+            for fr in frames]
+    res = jet.force_balance_angle(back, direction=(1, 0), window=STEADY)
+    assert res.psi0 == pytest.approx(pi / 2)
+
+
+def test_window_selects_frames_and_the_initial_jet_lies_outside_it():
+    early, late = psi_force(0.7), psi_force(1.6)
+    first = replace(initial_jet_3d(), contacts=None)  # t = 0 needs no contacts
+    frames = [first] + force_series([early] * 10, t0=1.0) + force_series([late] * 10, t0=11.0)
+    res = jet.force_balance_angle(iter(frames), window=(11.0, 20.0))
+    assert res.n_frames == 10 and res.psi0 == pytest.approx(1.6, abs=1e-12)
+    assert res.lambda_ == pytest.approx(LAMBDA)
+    res = jet.force_balance_angle(frames, window=(1.0, 10.0), blocks=5)
+    assert res.n_frames == 10 and res.blocks == 5 and res.psi0 == pytest.approx(0.7, abs=1e-12)
+    # every frame of the window must hold contacts
+    with pytest.raises(ValueError, match=r"frames: the frame at step 0 \(t = 0\) holds no "
+                                         "contacts"):
+        jet.force_balance_angle(frames)
+    with pytest.raises(ValueError, match="no frame lies in the window"):
+        jet.force_balance_angle(frames, window=(30.0, 40.0))
+    with pytest.raises(ValueError, match="frames: no frames given"):
+        jet.force_balance_angle([])
+
+
+def test_jackknife_errors_over_blocks_of_frames():
+    rng = np.random.default_rng(20)
+    f0 = psi_force(1.3)
+    forces = f0 * (1.0 + 0.1 * rng.standard_normal(20))
+    frames = [initial_jet_3d()] + force_series(forces)
+    res = jet.force_balance_angle(frames, window=(1.0, 20.0))
+    assert res.n_frames == 20 and res.blocks == 10
+    means = forces.reshape(10, 2).mean(axis=1)
+    assert res.F_wall == pytest.approx(forces.mean())
+    assert res.F_wall_err == pytest.approx(np.std(means, ddof=1) / np.sqrt(10), rel=1e-9)
+    assert res.ratio_err == pytest.approx(res.F_wall_err / res.J_in, rel=1e-9)
+    assert res.psi0_err == pytest.approx(res.ratio_err / np.sin(res.psi0), rel=0.05)
+    single = jet.force_balance_angle(frames, window=(1.0, 20.0), blocks=1)
+    assert single.F_wall_err == pytest.approx(np.std(forces, ddof=1) / np.sqrt(20), rel=1e-9)
+    one = jet.force_balance_angle(frames[:2], window=(1.0, 1.0))
+    assert one.n_frames == 1 and np.isnan(one.psi0_err)
+
+
+def slab_frame(wall_force, *, time, step, tail=40.0, stray=None):
+    """A frame in the steady state: the undisturbed jet (lambda = 8) from h = 1 to ``tail``,
+    disturbed grains next to the target, and optionally one disturbed grain at ``stray``."""
+    frame = force_frame(wall_force, time=time, step=step)
+    z = 1.0 + 0.5 * np.arange(int(round((tail - 1.0) / 0.5)) + 1)
+    xy = np.array([[0.5, 0.5], [-0.5, 0.5], [0.5, -0.5], [-0.5, -0.5]])
+    jet_pos = np.column_stack([np.tile(xy, (z.size, 1)), np.repeat(z, 4)])
+    jet_vel = np.tile([0.0, 0.0, -1.0], (len(jet_pos), 1))
+    hot = np.array([[1.0, 0.0, 0.6], [-2.0, 1.0, 0.7], [0.0, 2.0, 0.5]])
+    hot_vel = np.array([[0.5, 0.0, 0.1], [-0.4, 0.2, 0.0], [0.0, 0.6, -0.2]])
+    extra = [(jet_pos, jet_vel), (hot, hot_vel)]
+    if stray is not None:
+        extra.append((np.array([stray]), np.array([[0.3, 0.0, 0.4]])))
+    pos = np.vstack([frame.position] + [p for p, _ in extra])
+    vel = np.vstack([frame.velocity] + [v for _, v in extra])
+    n_new = len(pos) - frame.n
+    return replace(frame, id=np.r_[frame.id, 10_000 + np.arange(n_new)],
+                   type=np.r_[frame.type, np.zeros(n_new, np.int32)],
+                   body=np.r_[frame.body, -np.ones(n_new, np.int64)],
+                   radius=np.r_[frame.radius, np.full(n_new, 0.5)],
+                   mass=np.r_[frame.mass, np.ones(n_new)], position=pos, velocity=vel,
+                   omega=np.zeros((len(pos), 3)))
+
+
+def test_line_density_from_the_upstream_slab_skips_frames_it_cannot_use():
+    f = psi_force(1.1)
+    frames = [slab_frame(f, time=float(t), step=t) for t in range(1, 9)]
+    frames += [slab_frame(2 * f, time=9.0, step=9, tail=15.0),  # the tail is in the slab
+               slab_frame(2 * f, time=10.0, step=10, tail=8.0),  # the slab is empty
+               slab_frame(2 * f, time=11.0, step=11, stray=(0.5, 0.0, 12.0)),  # disturbed
+               slab_frame(f, time=12.0, step=12, stray=(12.0, 0.0, 12.0))]  # far off: kept
+    res = jet.force_balance_angle(frames, line_density="window")
+    assert res.line_density == "window"
+    assert res.lambda_ == pytest.approx(LAMBDA) and res.J_in == pytest.approx(LAMBDA)
+    assert res.n_frames == 9 and res.n_skipped == 3
+    assert res.psi0 == pytest.approx(1.1, abs=1e-12)
+    assert res.J_in_err == pytest.approx(0.0, abs=1e-12)
+    assert jet.force_balance_angle(frames, line_density="window", upstream=(2.0, 6.0),
+                                   window=(1.0, 8.0)).lambda_ == pytest.approx(LAMBDA)
+    with pytest.raises(ValueError, match="no frame of the window has the undisturbed jet"):
+        jet.force_balance_angle(frames, line_density="window", window=(9.0, 11.0))
+
+
+def test_force_balance_bad_arguments_raise_clear_errors():
+    frames = [initial_jet_3d()] + force_series([psi_force(1.0)] * 3)
+    with pytest.raises(ValueError, match="force: 'contacts' or 'anchors'"):
+        jet.force_balance_angle(frames, force="bonds", window=STEADY)
+    with pytest.raises(ValueError, match="line_density: 'initial', 'window' or a positive"):
+        jet.force_balance_angle(frames, line_density="theory", window=STEADY)
+    with pytest.raises(ValueError, match="line_density: expected a positive"):
+        jet.force_balance_angle(frames, line_density=-1.0, window=STEADY)
+    with pytest.raises(ValueError, match=r"upstream: \(h_lo, h_hi\) with 0 <= h_lo < h_hi"):
+        jet.force_balance_angle(frames, upstream=(15.0, 5.0), window=STEADY)
+    with pytest.raises(ValueError, match="upstream"):
+        jet.force_balance_angle(frames, upstream=5.0, window=STEADY)
+    with pytest.raises(ValueError, match="undisturbed"):
+        jet.force_balance_angle(frames, undisturbed=-0.1, window=STEADY)
+    with pytest.raises(ValueError, match="u0"):
+        jet.force_balance_angle(frames, u0=0.0, window=STEADY)
+    with pytest.raises(ValueError, match="target: the frame at step 1"):
+        jet.force_balance_angle(frames, target=[7], window=STEADY)
+    with pytest.raises(ValueError, match="target: the selection must return"):
+        jet.force_balance_angle(frames, target=lambda f: np.ones(2, bool), window=STEADY)
+    with pytest.raises(ValueError, match="blocks: 5 blocks need"):
+        jet.force_balance_angle(frames, blocks=5, window=STEADY)
+    with pytest.raises(ValueError, match=r"F_wall / J_in = 2\.5 .*outside \[0, 2\]"):
+        jet.force_balance_angle([initial_jet_3d()] + force_series([2.5 * LAMBDA]),
+                                window=STEADY)
+    short = initial_jet_3d(length=1.0)  # 4 grains in its middle 60 %
+    with pytest.raises(ValueError, match="too short"):
+        jet.force_balance_angle([short] + force_series([1.0]), window=STEADY)
+
+
+@pytest.fixture(scope="module")
+def sheet_run(tmp_path_factory: pytest.TempPathFactory):
+    """A 400-grain 3D jet (D_jet = 4.5 d) onto a target 2.5 times wider, with contacts saved
+    five times per d/u0 (~5 s)."""
+    from grainflow.io.h5md import read_frames
+    from grainflow.runner import run_config
+
+    rundir = tmp_path_factory.mktemp("jet_force") / "run"
+    config = {"scenario": "jet3d", "dim": 3, "run": {"duration": 16.0},
+              "output": {"thermo_every": 1000, "frames_every": 100, "contacts": True,
+                         "checkpoint_every": 0, "snapshot": False},
+              "jet": {"jet_diameter": 4.5, "target_diameter": 11.25, "n": 400}}
+    run_config(config, rundir, progress="none")
+    return list(read_frames(rundir / "frames.h5"))
+
+
+def test_force_balance_on_a_real_sheet_run(sheet_run):
+    """X = 2.5: a sheet, psi0 near the thesis's C0 = 1.68 (eq. 4.4); the contact and the
+    anchor forces agree; the jet's line density is that of the thinned fcc lattice."""
+    window = (10.0, 16.0)
+    res = jet.force_balance_angle(sheet_run, window=window)
+    assert 1.2 < res.psi0 < 2.0
+    assert 0 < res.psi0_err < 0.3 and res.n_frames == 30
+    theory = 0.9 * np.sqrt(2.0) * pi * 2.25**2  # phi_tilde * fcc sites per d^3 * area
+    assert res.lambda_ == pytest.approx(theory, rel=0.05)
+    anchors = jet.force_balance_angle(sheet_run, window=window, force="anchors")
+    assert anchors.ratio == pytest.approx(res.ratio, rel=0.1)
+    # the 20 d long jet's tail has entered the slab 10-20 d by t = 10
+    with pytest.raises(ValueError, match="the jet's tail may have passed"):
+        jet.force_balance_angle(sheet_run, window=window, line_density="window")
 
 
 # --------------------------------------------------------------------------------------------

@@ -44,7 +44,7 @@ def test_table_verdicts_use_the_seed_uncertainty_or_ten_percent() -> None:
     table.add("C1", None, None, 1.0)
     verdicts = [row.split("|")[4].strip() for row in table.rows]
     assert verdicts == ["agrees", "misses", "agrees", "misses", "—"]
-    assert set(SEED) >= {"C0", "C1", "C2", "v2(eps=0.615)", "phi_s", "alpha_s", "mu_s",
+    assert set(SEED) >= {"C0", "C1", "C2", "v2(eps=0.615), experiment", "phi_s", "alpha_s", "mu_s",
                          "mu_max", "I0", "a (frictional)", "a (frictionless)"}
 
 
@@ -59,8 +59,7 @@ def small_jet_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
               "jet": {"jet_diameter": 4.5, "target_diameter": 11.25, "n": 400,
                       "cross_section": "rectangle", "aspect_ratio": 2.05,
                       "cross_section_area": 16.0}}
-    with pytest.warns(UserWarning, match="tethers"):  # the seed's dt, see docs/jets.md
-        run_config(config, rundir, progress="none")
+    run_config(config, rundir, progress="none")
     return rundir
 
 

@@ -120,3 +120,46 @@ def test_state_round_trip_and_validation():
         loose.add_force(Tethers(loose.state.id, K, ETA))
     with pytest.raises(ValueError, match="ids"):
         sim.add_force(Tethers([5], K, ETA))
+
+
+def test_time_scales_are_those_of_the_fastest_mode():
+    """One tethered particle: k/m and eta/m. A bonded pair: the antisymmetric mode along the
+    bond, 3k/m (the mode measured above). A triangular target of 91 wall particles: the
+    largest eigenvalue of the linearised coupling (a dense eigensolve of the same matrix
+    built independently), below Gershgorin's bound 1 + 2 z = 13."""
+    from grainflow.insertion.lattice import lattice_points
+    from grainflow.insertion.regions import BoxRegion
+
+    sim = make_sim([[0.0, 0.0, 0.0]], body=0)
+    sim.add_force(Tethers(sim.state.id, K, ETA))
+    osc, rel = sim.forces[-1].time_scales(sim.context)
+    assert osc.time == pytest.approx(np.pi / np.sqrt(K))
+    assert rel.time == pytest.approx(1.0 / ETA)
+    sim = make_sim([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], body=0)
+    sim.add_force(Tethers(sim.state.id, K, ETA, bonds=neighbor_bonds(sim.state, sim.state.id,
+                                                                     1.5)))
+    osc, rel = sim.forces[-1].time_scales(sim.context)
+    assert osc.time == pytest.approx(np.pi / np.sqrt(3 * K))
+    assert rel.time == pytest.approx(1.0 / (3 * ETA))
+
+    plane = lattice_points(BoxRegion((-5.0, -5.0), (5.0, 5.0)), 1.0, "triangular")
+    plane = plane[np.hypot(*(plane - plane.mean(axis=0)).T) < 5.0]
+    x = np.column_stack([plane, np.zeros(len(plane))])
+    sim = make_sim(x, body=0)
+    ids = sim.state.id
+    bonds = neighbor_bonds(sim.state, ids, 1.05)
+    sim.add_force(Tethers(ids, K, ETA, bonds=bonds))
+    _, rel = sim.forces[-1].time_scales(sim.context)
+    n = len(x)
+    L = np.eye(3 * n)
+    index = {int(i): k for k, i in enumerate(sim.state.id)}
+    for a, b in bonds:
+        i, j = index[int(a)], index[int(b)]
+        d = sim.state.x[i] - sim.state.x[j]
+        nn = np.outer(d, d) / d.dot(d)
+        for p, q, s in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
+            L[3 * p:3 * p + 3, 3 * q:3 * q + 3] += s * nn
+    lam = np.linalg.eigvalsh(L)[-1]
+    assert n > 64  # the sparse (eigsh) path
+    assert rel.time == pytest.approx(1.0 / (ETA * lam), rel=1e-5)
+    assert 5.0 < lam < 13.0

@@ -809,9 +809,13 @@ def _unused_sections(data: dict[str, Any], scenario: Scenario) -> list[str]:
 
 
 def resolved_dict(config: RunConfig) -> dict[str, Any]:
-    """The configuration with defaults filled in, as plain data (TOML-writable)."""
-    data = config.model_dump(exclude_none=True)
+    """The configuration with defaults filled in, as plain data (TOML-writable): only the
+    sections its scenario reads, so that the result loads again (a run directory's
+    ``config.toml`` is what ``resume`` reads)."""
     entry = config.scenario_entry
+    allowed = COMMON_SECTIONS | entry.uses
+    data = {key: value for key, value in config.model_dump(exclude_none=True).items()
+            if key in allowed or key not in RunConfig.model_fields}
     if config.section is not None and entry.section:
         data[entry.section] = config.section.model_dump(exclude_none=True)
     return data

@@ -32,7 +32,7 @@ import numpy as np
 #: uncertainty where the thesis gives one (else None: the issue's 10 % applies).
 SEED: dict[str, tuple[float, float | None]] = {
     "C0": (1.68, None), "C1": (0.563, None), "C2": (0.554, None),
-    "v2(eps=0.615)": (0.16, None),
+    "v2(eps=0.615), experiment": (0.16, None),
     "a (frictional)": (0.240, None), "a (frictionless)": (0.223, None),
     "|s_rz/s_zz| (frictional)": (1.7e-2, None), "|s_rz/s_zz| (frictionless)": (3.0e-2, None),
     "flatness z (frictional)": (2.70, None), "flatness r (frictional)": (2.98, None),
@@ -55,6 +55,8 @@ class JetPlan:
     scatter_duration: float
     scatter_window: tuple[float, float]
     aspect_ratios: tuple[float, ...]
+    aniso_n: int
+    aniso_duration: float
     rheo3d_phi: tuple[float, ...]
     rheo3d_n: int
     rheo3d_window: tuple[float, float]
@@ -62,27 +64,32 @@ class JetPlan:
     rheo2d_n: int
     rheo2d_window: tuple[float, float]
     replicas: int
+    rheology_replicas: int = 0  # 0: as ``replicas``
     reductions: tuple[str, ...] = field(default=())
 
 
 FULL = JetPlan(scatter_X=(0.4, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0),
                scatter_e=(0.75, 0.90, 0.99), scatter_n=2000, scatter_duration=80.0,
                scatter_window=(30.0, 80.0), aspect_ratios=(1.0, 1.5, 2.05, 3.0, 4.0),
+               aniso_n=4000, aniso_duration=120.0,
                rheo3d_phi=(0.3, 0.4, 0.45, 0.5, 0.8, 0.9), rheo3d_n=20_000,
                rheo3d_window=(50.0, 100.0), rheo2d_phi=(0.3, 0.5, 0.7, 0.8, 0.9),
                rheo2d_n=8000, rheo2d_window=(180.0, 300.0), replicas=10)
 REDUCED = JetPlan(scatter_X=(0.5, 0.8, 1.2, 1.6, 2.0, 2.5, 3.5, 5.0), scatter_e=(0.75,),
                   scatter_n=1200, scatter_duration=50.0, scatter_window=(20.0, 50.0),
-                  aspect_ratios=(1.0, 2.05, 4.0), rheo3d_phi=(0.5, 0.9), rheo3d_n=6000,
-                  rheo3d_window=(30.0, 55.0), rheo2d_phi=(0.5, 0.7, 0.9), rheo2d_n=4000,
-                  rheo2d_window=(90.0, 150.0), replicas=2,
-                  reductions=("2 replicas per point (seed: 10)",
+                  aspect_ratios=(1.0, 1.5, 2.05, 4.0), aniso_n=3000, aniso_duration=100.0,
+                  rheo3d_phi=(0.3, 0.5, 0.9),
+                  rheo3d_n=10_000, rheo3d_window=(40.0, 80.0), rheo2d_phi=(0.3, 0.5, 0.7, 0.9),
+                  rheo2d_n=8000, rheo2d_window=(120.0, 200.0), replicas=3,
+                  rheology_replicas=2,
+                  reductions=("3 replicas per point (seed: 10); 2 for the rheology sweeps",
                               "psi0(X) at e = 0.75 only, 8 targets, steady window t = 20-50",
-                              "v2 at 3 aspect ratios (eps = 0, 0.615, 0.88)",
-                              "3D rheology: phi_tilde = 0.5, 0.9; 6,000 grains, window "
-                              "t = 30-55 (seed: 20,000, 50-100)",
-                              "2D rheology: phi_tilde = 0.5, 0.7, 0.9; 4,000 grains, window "
-                              "t = 90-150 (seed: 8,000, 180-300)"))
+                              "v2 at 4 aspect ratios (eps = 0, 0.38, 0.615, 0.88), 3,000 grains, "
+                              "window t = 50-100",
+                              "3D rheology: phi_tilde = 0.3, 0.5, 0.9; 10,000 grains, window "
+                              "t = 40-80 (seed: six values, 20,000 grains, 50-100)",
+                              "2D rheology: phi_tilde = 0.3, 0.5, 0.7, 0.9; window t = 120-200 "
+                              "(seed: 180-300)"))
 
 
 def _base(dim: int, duration: float, jet: dict[str, Any], frames_every: int) -> dict[str, Any]:
@@ -106,7 +113,7 @@ def sweep_specs(plan: JetPlan) -> dict[str, Any]:
                    "n": plan.scatter_n, "restitution": 0.75}
     # v2: a sheet-forming target (X = 2.5 on the equal-area circle's diameter)
     aniso_jet = {**scatter_jet, "cross_section": "rectangle", "cross_section_area": 16.0,
-                 "aspect_ratio": 1.0,
+                 "aspect_ratio": 1.0, "n": plan.aniso_n,
                  "target_diameter": round(2.5 * math.sqrt(4 * 16.0 / math.pi), 2)}
     rheo3d_jet = {"jet_diameter": 10.0, "target_diameter": 22.0, "n": plan.rheo3d_n,
                   "phi_tilde": 0.9, "mu_p": 0.2}
@@ -118,7 +125,7 @@ def sweep_specs(plan: JetPlan) -> dict[str, Any]:
         "scatter": {"base": _base(3, plan.scatter_duration, scatter_jet, per_unit),
                     "overrides": scatter,
                     "analyses": ["grainflow.studies.jet_study:scattering_summary"]},
-        "anisotropy": {"base": _base(3, plan.scatter_duration, aniso_jet, per_unit),
+        "anisotropy": {"base": _base(3, plan.aniso_duration, aniso_jet, per_unit),
                        "overrides": {"jet.aspect_ratio": list(plan.aspect_ratios)},
                        "analyses": ["grainflow.studies.jet_study:anisotropy_summary"]},
         "rheo3d": {"base": _base(3, plan.rheo3d_window[1], rheo3d_jet, per_unit // 2),
@@ -127,8 +134,9 @@ def sweep_specs(plan: JetPlan) -> dict[str, Any]:
         "rheo2d": {"base": _base(2, plan.rheo2d_window[1], rheo2d_jet, per_unit),
                    "overrides": {"jet.phi_tilde": list(plan.rheo2d_phi)}},
     }
-    return {name: parse_sweep({"name": name, "mode": "grid", "replicates": plan.replicas,
-                               **spec})
+    rheology = plan.rheology_replicas or plan.replicas
+    return {name: parse_sweep({"name": name, "mode": "grid", **spec, "replicates":
+                               rheology if name.startswith("rheo") else plan.replicas})
             for name, spec in raw.items()}
 
 
@@ -136,6 +144,10 @@ def sweep_specs(plan: JetPlan) -> dict[str, Any]:
 #: Fraction of a scattering run after which the outgoing flow is steady (the reduced
 #: plan's window t = 20-50 of 50; the full plan's 30-80 of 80 starts at 0.375).
 STEADY_FROM = 0.4
+#: The same for the anisotropy runs, measured farther out (shell ~11 d): the sheet moves at
+#: about u0/2, and before t ~ 50 its far part is still filling with the fastest (y-going)
+#: grains, which biases v2 negative (docs/jets.md, "v2").
+STEADY_FROM_ANISOTROPY = 0.5
 
 
 def _run_frames(rundir: Path) -> tuple[list[Any], dict[str, Any]]:
@@ -147,35 +159,46 @@ def _run_frames(rundir: Path) -> tuple[list[Any], dict[str, Any]]:
     return list(read_frames(rundir / "frames.h5")), config
 
 
-def _steady(config: dict[str, Any]) -> tuple[float, float]:
+def _steady(config: dict[str, Any], start: float = STEADY_FROM) -> tuple[float, float]:
     duration = float(config["run"]["duration"])
-    return STEADY_FROM * duration, duration
+    return start * duration, duration
 
 
 def scattering_summary(rundir: str | Path) -> dict[str, float]:
-    """Sweep analysis: psi0 of one 3D run over its steady window
-    (:func:`grainflow.analysis.jet.scattering_angle`), with X = D_tar/D_jet."""
-    from grainflow.analysis.jet import scattering_angle
+    """Sweep analysis: psi0 of one 3D run over its steady window, with X = D_tar/D_jet, by
+    the two definitions: ``psi0`` from the force on the target by Clanet's momentum balance
+    1 - cos psi0 = F_wall/J_in, eq. 4.3, the one the thesis derives
+    (:func:`grainflow.analysis.jet.force_balance_angle`), and ``psi0_velocity``, the
+    direction of the outgoing momentum flux (:func:`~grainflow.analysis.jet.scattering_angle`;
+    smaller in the forward cone, where inelastic grains lose flux, docs/jets.md)."""
+    from grainflow.analysis.jet import force_balance_angle, scattering_angle
 
     frames, config = _run_frames(Path(rundir))
     jet = config["jet"]
-    result = scattering_angle(frames, target_radius=0.5 * jet["target_diameter"],
-                              jet_radius=0.5 * jet["jet_diameter"], window=_steady(config))
-    return {"psi0": float(result.psi0), "psi0_err": float(result.psi0_err),
+    window = _steady(config)
+    velocity = scattering_angle(frames, target_radius=0.5 * jet["target_diameter"],
+                                jet_radius=0.5 * jet["jet_diameter"], window=window)
+    force = force_balance_angle(frames, window=window)
+    return {"psi0": float(force.psi0), "psi0_err": float(force.psi0_err),
+            "psi0_velocity": float(velocity.psi0),
+            "psi0_velocity_err": float(velocity.psi0_err),
             "X": jet["target_diameter"] / jet["jet_diameter"],
-            "scattered": float(result.n_grains)}
+            "scattered": float(velocity.n_grains)}
 
 
 def anisotropy_summary(rundir: str | Path) -> dict[str, float]:
     """Sweep analysis: v2 of the azimuthal flux of one rectangular-jet run, with its
-    eccentricity eps = (l^2 - 1)/(l^2 + 1) (Sec. 4.2)."""
+    eccentricity eps = (l^2 - 1)/(l^2 + 1) (Sec. 4.2). The azimuth is that of each grain's
+    velocity: its position's azimuth keeps a memory of the jet's shape (grains leave roughly
+    in the direction of the place they hit), which biases v2 towards the long side."""
     from grainflow.analysis.jet import anisotropy_v2, eccentricity
 
     frames, config = _run_frames(Path(rundir))
     jet = config["jet"]
     half_long = 0.5 * math.sqrt(jet["cross_section_area"] * jet["aspect_ratio"])
     result = anisotropy_v2(frames, target_radius=0.5 * jet["target_diameter"],
-                           jet_radius=half_long, window=_steady(config))
+                           jet_radius=half_long, window=_steady(config, STEADY_FROM_ANISOTROPY),
+                           azimuth="velocity")
     return {"v2": float(result.v), "v2_err": float(result.v_err),
             "eps": float(eccentricity(jet["aspect_ratio"]))}
 
@@ -260,6 +283,24 @@ def _flatness_3d(points: _Points, window: tuple[float, float], mu_p: float
                    if len(v) > 1 else float("nan")) for name, v in values.items()}
 
 
+def _dead_zone_line(label: str, points: _Points, match: dict[str, float],
+                    window: tuple[float, float]) -> str:
+    """One report line: the dead zone of the first replica matching ``match``."""
+    from grainflow.analysis.jet import dead_zone
+    from grainflow.io.h5md import read_frames
+
+    for p, rundir in zip(points.params, points.rundirs):
+        if all(float(p[k]) == v for k, v in match.items()):
+            config = _run_frames(rundir)[1]["jet"]
+            zone = dead_zone(list(read_frames(rundir / "frames.h5")),
+                             target_radius=0.5 * config["target_diameter"], window=window)
+            if not zone.found:
+                return f"- {label}: none"
+            return (f"- {label}: found, up to {zone.height:g} d thick over the cells "
+                    f"{zone.extent[1][0]:g} to {zone.extent[1][1]:g} (lateral)")
+    return f"- {label}: not run"
+
+
 # --------------------------------------------------------------------------------- report
 @dataclass
 class _Table:
@@ -311,6 +352,9 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     if plan.reductions:
         lines += ["Reductions relative to the seed:", ""] + [f"- {r}" for r in plan.reductions]
         lines.append("")
+    lines += ["psi0 is the thesis's eq. 4.3 (force balance on the target), v2 the flux-weighted "
+              "<cos 2 phi> of the outgoing velocities' azimuths; docs/jets.md defines every "
+              "quantity and gives the measurements behind each miss.", ""]
     table = _Table()
 
     # Chapter 4: psi0(X) at e = 0.75, and v2(eps)
@@ -322,13 +366,19 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         if len(X) >= 4 else None
     for name in ("C0", "C1", "C2"):
         table.add(name, getattr(fit, name, None), getattr(fit, f"{name}_err", None), sc.cpu)
+    _, psi0_v, psi0_v_err = _mean_by([sc.summaries[i]["X"] for i in at],
+                                     [sc.summaries[i]["psi0_velocity"] for i in at])
+    fit_v = fit_psi0(X, psi0_v, np.where(np.isfinite(psi0_v_err), psi0_v_err, 0.02)) \
+        if len(X) >= 4 else None
     if len(X):
         plot_psi0(X, psi0, out / "psi0.png", psi0_err=psi0_err, fit=fit)
-        lines.append("![psi0(X)](psi0.png)")
+        plot_psi0(X, psi0_v, out / "psi0_velocity.png", psi0_err=psi0_v_err, fit=fit_v)
+        lines += ["![psi0(X), force balance](psi0.png)",
+                  "![psi0(X), outgoing velocity](psi0_velocity.png)"]
     an = points["anisotropy"]
     eps, v2, v2_err = _mean_by([s["eps"] for s in an.summaries], [s["v2"] for s in an.summaries])
     near = np.flatnonzero(np.isclose(eps, 0.615, atol=0.01))
-    table.add("v2(eps=0.615)", float(v2[near[0]]) if near.size else None,
+    table.add("v2(eps=0.615), experiment", float(v2[near[0]]) if near.size else None,
               float(v2_err[near[0]]) if near.size else None, an.cpu)
     if len(eps):
         plot_v2_vs_eccentricity(eps, v2, out / "v2.png", v2_err=v2_err)
@@ -395,11 +445,25 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
             plot_stress_profiles(list(layers2[0.9]), out / "stress_2d.png")
             lines.append("![stress 2D](stress_2d.png)")
 
+    lines += ["", "Dead zone (cells next to the target with mean speed < 0.1 u0 and sqrt(T_g/m) < "
+              "0.05 u0; the seed: one in 2D layer (a), none in 3D):", ""]
+    lines += [_dead_zone_line(label, sweep, key, window) for label, sweep, key, window in (
+        ("3D, φ̃0 = 0.9, μp = 0.2", r3, {"jet.phi_tilde": 0.9, "jet.mu_p": 0.2},
+         plan.rheo3d_window),
+        ("2D, φ̃0 = 0.9, frictionless", r2, {"jet.phi_tilde": 0.9}, plan.rheo2d_window))]
     lines += ["", "| quantity | seed | ours | within the seed's uncertainty (or 10 %) "
               "| run cost (CPU s, whole sweep) |", "|---|---|---|---|---|", *table.rows]
-    lines += ["", "Scattering angle per X (e = 0.75; replica mean ± standard error):", "",
-              "| X | psi0 (rad) | ± |", "|---|---|---|"]
-    lines += [f"| {x:g} | {p:.3f} | {e:.2g} |" for x, p, e in zip(X, psi0, psi0_err)]
+    lines += ["", "Scattering angle per X (e = 0.75; replica mean ± standard error): psi0 by "
+              "the force balance of eq. 4.3 (the table above) and by the direction of the "
+              "outgoing momentum flux:", "",
+              "| X | psi0, eq. 4.3 (rad) | ± | psi0, velocity (rad) | ± |",
+              "|---|---|---|---|---|"]
+    lines += [f"| {x:g} | {p:.3f} | {e:.2g} | {pv:.3f} | {ev:.2g} |"
+              for x, p, e, pv, ev in zip(X, psi0, psi0_err, psi0_v, psi0_v_err)]
+    if fit_v is not None:
+        lines += ["", f"Fit of the velocity angles: C0 = {fit_v.C0:.3g} ± {fit_v.C0_err:.2g}, "
+                  f"C1 = {fit_v.C1:.3g} ± {fit_v.C1_err:.2g}, "
+                  f"C2 = {fit_v.C2:.3g} ± {fit_v.C2_err:.2g}."]
     lines += ["", "v2 per eccentricity:", "", "| eps | v2 | ± |", "|---|---|---|"]
     lines += [f"| {x:.3f} | {v:.4f} | {e:.2g} |" for x, v, e in zip(eps, v2, v2_err)]
     total = sum(p.cpu for p in points.values())
