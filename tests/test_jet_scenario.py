@@ -169,3 +169,16 @@ def test_docs_jet_table_lists_every_field() -> None:
     assert set(rows) == set(JetSection.model_fields)
     for name, field in JetSection.model_fields.items():
         assert rows[name] == repr(field.default), name
+
+
+def test_a_denser_target() -> None:
+    """target_spacing = 0.5: four times the wall particles (a smoother surface), bonded to
+    their neighbours at that spacing."""
+    wide = target_sites(JetSection(target_diameter=22.0), 3)
+    dense = target_sites(JetSection(target_diameter=22.0, target_spacing=0.5), 3)
+    assert len(dense) == pytest.approx(4 * len(wide), rel=0.05)
+    sim = build_simulation(load_config(_config(3, target_spacing=0.5)))
+    tethers = [f for f in sim.forces if isinstance(f, Tethers)][0]
+    wall = sim.state.type == TARGET_TYPE
+    assert len(tethers.bond_ids) > 2 * int(wall.sum())
+    assert tethers.l0.max() == pytest.approx(0.5)

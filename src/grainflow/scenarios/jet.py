@@ -89,6 +89,10 @@ class JetSection(BaseModel):
     mu_p: float = Field(0.2, ge=0, allow_inf_nan=False, description="Coulomb friction")
     k_w: float = Field(10.0, gt=0, allow_inf_nan=False, description="tether stiffness")
     eta_w_factor: float = Field(5.0, ge=0, allow_inf_nan=False, description="eta_w/eta_n")
+    target_spacing: float = Field(
+        1.0, gt=0, le=1, allow_inf_nan=False,
+        description="spacing of the target's wall particles in d (1: touching; smaller: a "
+        "smoother, denser target, the thesis gives no lattice)")
     gap: float = Field(2.0, ge=0, allow_inf_nan=False,
                        description="distance from the jet's front to the target surface")
     removal_radius: float | None = Field(
@@ -186,21 +190,22 @@ def thin_jet(radius: np.ndarray, dim: int, phi_tilde: float, rng: np.random.Gene
 
 
 def target_sites(section: JetSection, dim: int) -> np.ndarray:
-    """Centres of the target's wall particles: a triangular lattice of spacing d in the
-    plane z = -d/2 within the disk of radius D_tar/2 (3D), or a row at x = -d/2 for
-    ``|y| <= D_tar/2`` (2D)."""
+    """Centres of the target's wall particles: a triangular lattice of spacing
+    ``target_spacing`` (default d) in the plane z = -d/2 within the disk of radius D_tar/2
+    (3D), or a row at x = -d/2 for ``|y| <= D_tar/2`` (2D)."""
     from grainflow.insertion.lattice import lattice_points
     from grainflow.insertion.regions import BoxRegion
 
     radius = 0.5 * section.target_diameter
+    spacing = section.target_spacing
     if dim == 3:
         plane = lattice_points(BoxRegion((-radius - 1.0, -radius - 1.0),
-                                         (radius + 1.0, radius + 1.0)), 1.0, "triangular")
+                                         (radius + 1.0, radius + 1.0)), spacing, "triangular")
         plane -= plane[np.argmin(np.hypot(plane[:, 0] - 0.0, plane[:, 1] - 0.0))]
         plane = plane[np.hypot(plane[:, 0], plane[:, 1]) <= radius + 1e-9]
         return np.column_stack([plane, np.full(len(plane), -0.5)])
-    count = int(math.floor(radius + 1e-9))
-    y = np.arange(-count, count + 1, dtype=float)
+    count = int(math.floor(radius / spacing + 1e-9))
+    y = spacing * np.arange(-count, count + 1, dtype=float)
     return np.column_stack([np.full(y.size, -0.5), y])
 
 
@@ -255,7 +260,7 @@ def build_jet(section: JetSection, dim: int, *, seed: int = 0, dt: float | None 
                      max_overlap_fraction=max_overlap_fraction, seed=seed)
     ids = state.id[wall_idx]
     sim.add_force(Tethers(ids, section.k_w, section.eta_w_factor * eta_n,
-                          bonds=neighbor_bonds(state, ids, 1.05)))
+                          bonds=neighbor_bonds(state, ids, 1.05 * section.target_spacing)))
     if dim == 3:
         keep_region: Any = CylinderRegion((0.0, 0.0), removal, lo=-removal, hi=np.inf)
     else:
