@@ -53,7 +53,6 @@ class JetPlan:
     scatter_e: tuple[float, ...]
     scatter_n: int
     scatter_duration: float
-    scatter_window: tuple[float, float]
     aspect_ratios: tuple[float, ...]
     aniso_n: int
     aniso_duration: float
@@ -70,13 +69,13 @@ class JetPlan:
 
 FULL = JetPlan(scatter_X=(0.4, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0),
                scatter_e=(0.75, 0.90, 0.99), scatter_n=2000, scatter_duration=80.0,
-               scatter_window=(30.0, 80.0), aspect_ratios=(1.0, 1.5, 2.05, 3.0, 4.0),
+               aspect_ratios=(1.0, 1.5, 2.05, 3.0, 4.0),
                aniso_n=4000, aniso_duration=120.0,
                rheo3d_phi=(0.3, 0.4, 0.45, 0.5, 0.8, 0.9), rheo3d_n=20_000,
                rheo3d_window=(50.0, 100.0), rheo2d_phi=(0.3, 0.5, 0.7, 0.8, 0.9),
                rheo2d_n=8000, rheo2d_window=(180.0, 300.0), replicas=10)
 REDUCED = JetPlan(scatter_X=(0.5, 0.8, 1.2, 1.6, 2.0, 2.5, 3.5, 5.0), scatter_e=(0.75,),
-                  scatter_n=1200, scatter_duration=50.0, scatter_window=(20.0, 50.0),
+                  scatter_n=1200, scatter_duration=50.0,
                   aspect_ratios=(1.0, 1.5, 2.05, 4.0), aniso_n=3000, aniso_duration=100.0,
                   rheo3d_phi=(0.3, 0.5, 0.9),
                   rheo3d_n=10_000, rheo3d_window=(40.0, 80.0), rheo2d_phi=(0.3, 0.5, 0.7, 0.9),
@@ -141,8 +140,9 @@ def sweep_specs(plan: JetPlan) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------- per-run analyses
-#: Fraction of a scattering run after which the outgoing flow is steady (the reduced
-#: plan's window t = 20-50 of 50; the full plan's 30-80 of 80 starts at 0.375).
+#: Fraction of a scattering run after which the outgoing flow is steady: the per-run
+#: analyses read only the run directory, so the window is t = 0.4-1 of the run's duration
+#: (reduced plan 20-50, full plan 32-80).
 STEADY_FROM = 0.4
 #: The same for the anisotropy runs, measured farther out (shell ~11 d): the sheet moves at
 #: about u0/2, and before t ~ 50 its far part is still filling with the fastest (y-going)
