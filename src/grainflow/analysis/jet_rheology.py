@@ -47,7 +47,8 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike
 
-from grainflow.analysis.cg import CGFields, Cartesian, Cylindrical, Heaviside, combine, frame_sums
+from grainflow.analysis.cg import (CGFields, Cartesian, Cylindrical, Heaviside, coarse_grain_grids,
+                                   combine)
 from grainflow.analysis.kinetic_theory import RANDOM_CLOSE_PACKING, pressure_ratio
 from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, MuPowerLawFit,
                                          effective_friction, fit_divergence, fit_mu_linear,
@@ -208,36 +209,16 @@ def _check_window(window) -> None:
 
 def _accumulate(frames: Iterable[Frame], grids: Sequence, contacts: Sequence[bool],
                 window, blocks: int, grains: Sequence[int]) -> list[CGFields]:
-    """:func:`grainflow.analysis.cg.coarse_grain` of the grains of every frame on several
-    grids in one pass (same window, block and averaging rules)."""
+    """:func:`grainflow.analysis.cg.coarse_grain_grids` of the grains of every frame in the
+    window (the target's particles removed, :func:`grain_frame`), on several grids in one
+    pass."""
     if not isinstance(blocks, (int, np.integer)) or isinstance(blocks, bool) or blocks < 1:
         raise ValueError(f"blocks: a positive integer, got {blocks!r}")
     _check_window(window)
-    per_frame: list[list[dict[str, np.ndarray]]] = [[] for _ in grids]
-    times: list[float] = []
-    for frame in frames:
-        if window is not None and not window[0] <= frame.time <= window[1]:
-            continue
-        grain = grain_frame(frame, grains)
-        for store, grid, with_contacts in zip(per_frame, grids, contacts):
-            store.append(frame_sums(grain, grid, _KERNEL, contacts=with_contacts))
-        times.append(float(frame.time))
-    if not times:
-        raise ValueError("frames: no frame lies in the window" if window is not None
-                         else "frames: no frames given")
-    if blocks > len(times):
-        raise ValueError(f"blocks: {blocks} blocks need at least as many frames; the window "
-                         f"holds {len(times)}")
-    bounds = np.linspace(0, len(times), int(blocks) + 1).round().astype(int)
-    out = []
-    for grid, store in zip(grids, per_frame):
-        block_sums = {k: np.stack([sum(f[k] for f in store[a:b])
-                                   for a, b in zip(bounds[:-1], bounds[1:])])
-                      for k in store[0]}
-        out.append(CGFields(coordinates=grid, kernel=_KERNEL, n_frames=len(times),
-                            time=(times[0], times[-1]), block_sums=block_sums,
-                            block_frames=np.diff(bounds).astype(float)))
-    return out
+    selected = (grain_frame(frame, grains) for frame in frames
+                if window is None or window[0] <= frame.time <= window[1])
+    return coarse_grain_grids(selected, list(grids), _KERNEL, window=window,
+                              blocks=int(blocks), contacts=list(contacts))
 
 
 def _block(fields: CGFields, b: int) -> CGFields:

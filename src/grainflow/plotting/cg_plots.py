@@ -141,7 +141,7 @@ def _format_pm(value: float, err: float) -> str:
     return rf"{value:.{decimals}f} \pm {err:.{decimals}f}"
 
 
-def _fit_parameters(fit: MuFit | DivergenceFit) -> str:
+def fit_parameters_text(fit: MuFit | DivergenceFit) -> str:
     """The fitted parameters with their errors, e.g. ``$\\mu_s = 0.015 \\pm 0.009$, ...``."""
     parts = []
     for attr, symbol in _FIT_PARAMETERS[type(fit)]:
@@ -439,7 +439,7 @@ def plot_mu_of_I(
     colours = colormaps["tab10"].colors
     for i, (fit, name) in enumerate(zip(fit_list, names)):
         ax.plot(curve, fit.predict(curve), "-", color=colours[i % 10], lw=1.3,
-                label=f"{name}\n{_fit_parameters(fit)}")
+                label=f"{name}\n{fit_parameters_text(fit)}")
     ax.set_ylim(data_limits)
     if xlog:
         ax.set_xscale("log")
@@ -483,7 +483,7 @@ def plot_phi_of_I(
         data_limits = ax.get_ylim()
         curve = _curve_x(x, True)
         ax.plot(curve, fit.predict(curve), "-", color="tab:red", lw=1.3,
-                label=rf"$\phi_c - a\,{label}^{{2/\alpha}}$" f"\n{_fit_parameters(fit)}")
+                label=rf"$\phi_c - a\,{label}^{{2/\alpha}}$" f"\n{fit_parameters_text(fit)}")
         ax.axhline(fit.phi_c, ls=":", color="tab:red", lw=0.8)
         ax.set_ylim(min(data_limits[0], fit.phi_c), max(data_limits[1], fit.phi_c))
     ax.set_xscale("log")

@@ -24,6 +24,7 @@ from matplotlib.ticker import NullFormatter
 
 from grainflow.analysis.jet_rheology import KineticTheoryCheck, LayerFields
 from grainflow.analysis.rheology import DivergenceFit, MuLinearFit, MuOfIFit, MuPowerLawFit
+from grainflow.plotting.cg_plots import fit_parameters_text
 from grainflow.plotting.figures import new_figure, save_figure
 
 __all__ = ["plot_divergence_2d", "plot_friction_2d", "plot_friction_3d", "plot_pressure_ratio",
@@ -32,12 +33,6 @@ __all__ = ["plot_divergence_2d", "plot_friction_2d", "plot_friction_3d", "plot_p
 _MARKERS = "os^Dv<>p*hX"
 _COLOURS = colormaps["tab10"].colors
 
-_FIT_PARAMETERS = {
-    MuOfIFit: (("mu_s", r"\mu_s"), ("mu_max", r"\mu_{max}"), ("I0", "I_0")),
-    MuPowerLawFit: (("mu_s", r"\mu_s"), ("b", "b"), ("beta", r"\beta")),
-    MuLinearFit: (("a", "a"),),
-    DivergenceFit: (("phi_c", r"\phi_c"), ("a", "a"), ("alpha", r"\alpha")),
-}
 _FIT_NAMES = {
     MuOfIFit: r"$\mu_s + (\mu_{max}-\mu_s)/(1+I_0/I_s)$",
     MuPowerLawFit: r"$\mu_s + b I_s^\beta$",
@@ -83,25 +78,6 @@ def _errorbar(ax: Axes, x, y, err, marker, colour, label, seen: set[str]) -> Non
     ax.errorbar(x, y, yerr=e, fmt=marker, color=colour, ms=4, capsize=2, mfc="none",
                 label=None if label in seen else label)
     seen.add(label)
-
-
-def _format_pm(value: float, err: float) -> str:
-    if not (np.isfinite(err) and err > 0):
-        return f"{value:.3g}"
-    mantissa, exponent = f"{err:.0e}".split("e")
-    decimals = max(0, (1 if mantissa == "1" else 0) - int(exponent))
-    return rf"{value:.{decimals}f} \pm {err:.{decimals}f}"
-
-
-def _fit_text(fit) -> str:
-    parts = []
-    for attr, symbol in _FIT_PARAMETERS[type(fit)]:
-        value = getattr(fit, attr)
-        if attr == "mu_s" and getattr(fit, "mu_s_fixed", False):
-            parts.append(f"${symbol} = {value:g}$ (fixed)")
-        else:
-            parts.append(f"${symbol} = {_format_pm(value, getattr(fit, attr + '_err'))}$")
-    return ", ".join(parts)
 
 
 def _positive_range(values: list[np.ndarray], log: bool) -> np.ndarray:
@@ -285,7 +261,7 @@ def plot_friction_3d(layers: LayerFields | Sequence[LayerFields], path: str | Pa
     if fit is not None:
         curve = _positive_range([lay.I for lay in items], False)
         ax.plot(curve, fit.predict(curve), "-", color="k", lw=1.2,
-                label=f"{_FIT_NAMES[MuLinearFit]}, {_fit_text(fit)}")
+                label=f"{_FIT_NAMES[MuLinearFit]}, {fit_parameters_text(fit)}")
     ax.set_xlabel(r"$I = |D_{rz}|\sqrt{m/(P d)}$")
     ax.set_ylabel(r"$\mu^* = -\sigma_{rz}/P$")
     ax.legend(fontsize=7, frameon=False, loc="upper left")
@@ -315,7 +291,8 @@ def plot_divergence_2d(layers: LayerFields | Sequence[LayerFields], path: str | 
             if curve.size:
                 limits = ax.get_ylim()
                 ax.plot(curve, fit.predict(curve), "-", color="k", lw=1.2,
-                        label=rf"$\phi_c - a\,{symbol}^{{2/\alpha}}$" f"\n{_fit_text(fit)}")
+                        label=rf"$\phi_c - a\,{symbol}^{{2/\alpha}}$"
+                        f"\n{fit_parameters_text(fit)}")
                 ax.axhline(fit.phi_c, ls=":", color="k", lw=0.8)
                 ax.set_ylim(min(limits[0], fit.phi_c), max(limits[1], fit.phi_c) + 0.01)
         ax.set_xscale("log")
@@ -347,7 +324,7 @@ def plot_friction_2d(layers: LayerFields | Sequence[LayerFields], path: str | Pa
         limits = ax.get_ylim()
         for k, fit in enumerate(fit_list):
             ax.plot(curve, fit.predict(curve), ["-", "--", ":"][k % 3], color="k", lw=1.2,
-                    label=f"{_FIT_NAMES[type(fit)]}\n{_fit_text(fit)}")
+                    label=f"{_FIT_NAMES[type(fit)]}\n{fit_parameters_text(fit)}")
         ax.set_ylim(limits)
     if xlog:
         ax.set_xscale("log")

@@ -241,59 +241,53 @@ def _mean_by(keys: list[float], values: list[float]) -> tuple[np.ndarray, np.nda
     return ks, mean, err
 
 
-def _layers_3d(points: _Points, window: tuple[float, float]) -> dict[tuple[float, float], Any]:
-    """Pooled layer fields per (phi_tilde, mu_p) of the 3D rheology sweep."""
-    from grainflow.analysis.jet_rheology import layer_fields_3d, pool
-    from grainflow.io.h5md import read_frames
+def _rheology_3d(points: _Points, window: tuple[float, float]
+                 ) -> tuple[dict[tuple[float, float], Any], dict[float, dict[str, tuple]]]:
+    """The 3D rheology sweep, each run's frames read once: pooled layer fields per
+    (phi_tilde, mu_p), and per mu_p the flatness per component at phi_tilde = 0.9
+    (Table 5.1) as (replica mean, standard error)."""
+    from grainflow.analysis.jet_rheology import layer_fields_3d, layer_flatness, pool
 
     groups: dict[tuple[float, float], list[Any]] = {}
+    flat: dict[float, dict[str, list[float]]] = {}
     for p, rundir in zip(points.params, points.rundirs):
+        frames, config = _run_frames(rundir)
+        radius = 0.5 * config["jet"]["target_diameter"]
         key = (float(p["jet.phi_tilde"]), float(p["jet.mu_p"]))
-        groups.setdefault(key, []).append(layer_fields_3d(
-            read_frames(rundir / "frames.h5"), 11.0, window=window, blocks=4))
-    return {key: pool(layers) for key, layers in sorted(groups.items())}
+        groups.setdefault(key, []).append(layer_fields_3d(frames, radius, window=window,
+                                                          blocks=4))
+        if key[0] == 0.9:
+            for name, v in layer_flatness(frames, radius, dim=3, window=window).items():
+                flat.setdefault(key[1], {}).setdefault(name, []).append(v)
+    flatness = {mu: {name: (float(np.mean(v)), float(np.std(v, ddof=1) / math.sqrt(len(v)))
+                            if len(v) > 1 else float("nan")) for name, v in values.items()}
+                for mu, values in flat.items()}
+    return {key: pool(layers) for key, layers in sorted(groups.items())}, flatness
 
 
 def _layers_2d(points: _Points, window: tuple[float, float]) -> dict[float, tuple[Any, Any]]:
     """Pooled layers (a) and (b) per phi_tilde of the 2D rheology sweep."""
     from grainflow.analysis.jet_rheology import layer_fields_2d, pool
-    from grainflow.io.h5md import read_frames
 
     groups: dict[float, list[tuple[Any, ...]]] = {}
     for p, rundir in zip(points.params, points.rundirs):
+        frames, config = _run_frames(rundir)
         groups.setdefault(float(p["jet.phi_tilde"]), []).append(layer_fields_2d(
-            read_frames(rundir / "frames.h5"), 33.0, window=window, blocks=4))
+            frames, 0.5 * config["jet"]["target_diameter"], window=window, blocks=4))
     return {phi: tuple(pool(list(layer)) for layer in zip(*reps))
             for phi, reps in sorted(groups.items())}
-
-
-def _flatness_3d(points: _Points, window: tuple[float, float], mu_p: float
-                 ) -> dict[str, tuple[float, float]]:
-    """Flatness per component at phi_tilde = 0.9 (Table 5.1): replica mean and error."""
-    from grainflow.analysis.jet_rheology import layer_flatness
-    from grainflow.io.h5md import read_frames
-
-    values: dict[str, list[float]] = {}
-    for p, rundir in zip(points.params, points.rundirs):
-        if float(p["jet.phi_tilde"]) == 0.9 and float(p["jet.mu_p"]) == mu_p:
-            for name, v in layer_flatness(read_frames(rundir / "frames.h5"), 11.0, dim=3,
-                                          window=window).items():
-                values.setdefault(name, []).append(v)
-    return {name: (float(np.mean(v)), float(np.std(v, ddof=1) / math.sqrt(len(v)))
-                   if len(v) > 1 else float("nan")) for name, v in values.items()}
 
 
 def _dead_zone_line(label: str, points: _Points, match: dict[str, float],
                     window: tuple[float, float]) -> str:
     """One report line: the dead zone of the first replica matching ``match``."""
     from grainflow.analysis.jet import dead_zone
-    from grainflow.io.h5md import read_frames
 
     for p, rundir in zip(points.params, points.rundirs):
         if all(float(p[k]) == v for k, v in match.items()):
-            config = _run_frames(rundir)[1]["jet"]
-            zone = dead_zone(list(read_frames(rundir / "frames.h5")),
-                             target_radius=0.5 * config["target_diameter"], window=window)
+            frames, config = _run_frames(rundir)
+            zone = dead_zone(frames, target_radius=0.5 * config["jet"]["target_diameter"],
+                             window=window)
             if not zone.found:
                 return f"- {label}: none"
             return (f"- {label}: found, up to {zone.height:g} d thick over the cells "
@@ -386,7 +380,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
 
     # Chapter 5: 3D rheology in the layer 0 < z < 5 d
     r3 = points["rheo3d"]
-    layers3 = _layers_3d(r3, plan.rheo3d_window) if r3.rundirs else {}
+    layers3, flatness3 = _rheology_3d(r3, plan.rheo3d_window) if r3.rundirs else ({}, {})
     checks = []
     for mu_p, label in ((0.2, "frictional"), (0.0, "frictionless")):
         mine = [lay for (phi, mu), lay in layers3.items() if mu == mu_p]
@@ -397,7 +391,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         ratio = dense.shear_ratio[0] if dense is not None else None
         ratio_err = dense.error("shear_ratio")[0] if dense is not None else None
         table.add(f"|s_rz/s_zz| ({label})", ratio, ratio_err, r3.cpu)
-        flat = _flatness_3d(r3, plan.rheo3d_window, mu_p)
+        flat = flatness3.get(mu_p, {})
         for comp in ("z", "r", "theta"):
             value, err = flat.get(comp, (None, None))
             table.add(f"flatness {comp} ({label})", value, err, r3.cpu)

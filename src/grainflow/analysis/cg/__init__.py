@@ -9,10 +9,10 @@ function of :class:`~grainflow.frame.Frame` objects; the engine is never touched
 """
 
 from grainflow.analysis.cg.coordinates import Cartesian, Coordinates, Cylindrical, Polar
-from grainflow.analysis.cg.fields import (FIELDS, CGFields, coarse_grain, combine, frame_sums,
-                                          load_fields, strain_rate)
+from grainflow.analysis.cg.fields import (FIELDS, CGFields, coarse_grain, coarse_grain_grids,
+                                          combine, frame_sums, load_fields, strain_rate)
 from grainflow.analysis.cg.kernels import Gaussian, Heaviside, Kernel, Lucy
 
 __all__ = ["FIELDS", "CGFields", "Cartesian", "Coordinates", "Cylindrical", "Gaussian",
-           "Heaviside", "Kernel", "Lucy", "Polar", "coarse_grain", "combine", "frame_sums",
+           "Heaviside", "Kernel", "Lucy", "Polar", "coarse_grain", "coarse_grain_grids", "combine", "frame_sums",
            "load_fields", "strain_rate"]

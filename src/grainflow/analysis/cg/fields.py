@@ -34,7 +34,7 @@ each derived field computed per block, its standard error ``std / sqrt(blocks)``
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from math import pi
 from pathlib import Path
@@ -502,37 +502,56 @@ def coarse_grain(frames: Iterable[Frame], coordinates: Coordinates, kernel: Kern
         number of frames).
     contacts : include the contact stress (frames must carry their contact listing).
     """
+    return coarse_grain_grids(frames, [coordinates], kernel, window=window, blocks=blocks,
+                              contacts=contacts)[0]
+
+
+def coarse_grain_grids(frames: Iterable[Frame], grids: Sequence[Coordinates],
+                       kernel: Kernel | None = None, *,
+                       window: tuple[float, float] | None = None, blocks: int = 1,
+                       contacts: bool | Sequence[bool] = True) -> list[CGFields]:
+    """:func:`coarse_grain` on several grids in one pass over the frames (a generator is
+    read once): one :class:`CGFields` per grid, with the same window and blocks.
+    ``contacts``: one flag for all grids, or one per grid."""
     kernel = Heaviside() if kernel is None else kernel
     if not isinstance(kernel, (Heaviside, Gaussian, Lucy)):
         raise ValueError(f"kernel: expected Heaviside(), Gaussian(width) or Lucy(cutoff), "
                          f"got {kernel!r}")
-    if not isinstance(coordinates, (Cartesian, Cylindrical, Polar)):
-        raise ValueError(f"coordinates: expected Cartesian, Cylindrical or Polar, got "
-                         f"{coordinates!r}")
+    for coordinates in grids:
+        if not isinstance(coordinates, (Cartesian, Cylindrical, Polar)):
+            raise ValueError(f"coordinates: expected Cartesian, Cylindrical or Polar, got "
+                             f"{coordinates!r}")
+    flags = [contacts] * len(grids) if isinstance(contacts, bool) else list(contacts)
+    if len(flags) != len(grids):
+        raise ValueError(f"contacts: one flag or one per grid ({len(grids)}), got {contacts!r}")
     if not isinstance(blocks, int) or blocks < 1:
         raise ValueError(f"blocks: a positive integer, got {blocks!r}")
     if window is not None and not (len(window) == 2 and window[0] <= window[1]):
         raise ValueError(f"window: (t_start, t_end) with t_start <= t_end, got {window!r}")
-    per_frame: list[dict[str, np.ndarray]] = []
+    per_frame: list[list[dict[str, np.ndarray]]] = [[] for _ in grids]
     times: list[float] = []
     for frame in frames:
         if window is not None and not window[0] <= frame.time <= window[1]:
             continue
-        per_frame.append(frame_sums(frame, coordinates, kernel, contacts=contacts))
+        for store, coordinates, with_contacts in zip(per_frame, grids, flags):
+            store.append(frame_sums(frame, coordinates, kernel, contacts=with_contacts))
         times.append(float(frame.time))
-    if not per_frame:
+    if not times:
         raise ValueError("frames: no frame lies in the window" if window is not None
                          else "frames: no frames given")
-    if blocks > len(per_frame):
+    if blocks > len(times):
         raise ValueError(f"blocks: {blocks} blocks need at least as many frames; the window "
-                         f"holds {len(per_frame)}")
-    bounds = np.linspace(0, len(per_frame), blocks + 1).round().astype(int)
-    block_sums = {k: np.stack([sum(f[k] for f in per_frame[a:b])
-                               for a, b in zip(bounds[:-1], bounds[1:])])
-                  for k in per_frame[0]}
-    return CGFields(coordinates=coordinates, kernel=kernel, n_frames=len(per_frame),
-                    time=(times[0], times[-1]), block_sums=block_sums,
-                    block_frames=np.diff(bounds).astype(float))
+                         f"holds {len(times)}")
+    bounds = np.linspace(0, len(times), blocks + 1).round().astype(int)
+    out = []
+    for coordinates, store in zip(grids, per_frame):
+        block_sums = {k: np.stack([sum(f[k] for f in store[a:b])
+                                   for a, b in zip(bounds[:-1], bounds[1:])])
+                      for k in store[0]}
+        out.append(CGFields(coordinates=coordinates, kernel=kernel, n_frames=len(times),
+                            time=(times[0], times[-1]), block_sums=block_sums,
+                            block_frames=np.diff(bounds).astype(float)))
+    return out
 
 
 def combine(*fields: CGFields) -> CGFields:
