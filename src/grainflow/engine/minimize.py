@@ -98,15 +98,18 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None,
     return FireResult(done(), steps, overlap, fmax)
 
 
-
-
 def relax(sim: "Simulation") -> FireResult:
     """Remove overlaps with FIRE, gravity switched off (seed 003's initialisation; the
-    ``run.minimize`` option)."""
-    from grainflow.engine.forces import Gravity
+    ``run.minimize`` option).
+
+    Drag is switched off too: FIRE descends the potential energy, and a force against every
+    velocity damps the velocity FIRE builds up along it. With drag on, 60 rough DP rings took
+    more than 100,000 FIRE steps without reaching the overlap tolerance; without it, 20,300.
+    (Kinetic friction inside a pair law stays: it is part of the law.)"""
+    from grainflow.engine.forces import Drag, Gravity
 
     forces = sim.forces
-    sim.forces = [f for f in forces if not isinstance(f, Gravity)]
+    sim.forces = [f for f in forces if not isinstance(f, (Gravity, Drag))]
     try:
         return minimize_fire(sim)
     finally:
