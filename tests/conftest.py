@@ -12,6 +12,7 @@ step of a small system 10-50 times slower; the physics does not depend on the th
 from __future__ import annotations
 
 import contextlib
+from pathlib import Path
 
 from dataclasses import dataclass
 
@@ -266,3 +267,25 @@ def build_pile(n_mobile: int = 300, *, seed: int = 7, integrator: Integrator | N
     sim = Simulation(st, 4.0e-4, law, integrator=integrator, sort_every=sort_every, seed=seed)
     sim.add_force(Gravity([0.0, 0.0, -2.0]))
     return sim
+
+
+#: A stream scenario small enough for the default suite (about 600 grains in the hopper):
+#: a 1.4 mm aperture, soft contacts (t_c = 200 us), the stream followed to 2 cm.
+TINY_STREAM = dict(grain_diameter="200 um", aperture_diameter="1.4 mm",
+                   hopper_diameter="2.4 mm", fill_height="1.0 mm", contact_time="200 us",
+                   open_time="0.03 s", stream_depth="2 cm", stream_radius="1 cm")
+
+
+@pytest.fixture(scope="session")
+def tiny_stream_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A saved cohesionless tiny stream (:data:`TINY_STREAM`), 0.11 s, frames every 1 ms."""
+    from grainflow.runner import run_config
+
+    rundir = tmp_path_factory.mktemp("stream") / "run"
+    config = {"scenario": "stream", "dim": 3, "run": {"duration": 0.11, "seed": 3},
+              "output": {"thermo_every": 5000, "frames_every": 250, "checkpoint_every": 0,
+                         "snapshot": False},
+              "stream": dict(TINY_STREAM)}
+    with one_thread():
+        run_config(config, rundir, progress="none")
+    return rundir

@@ -427,3 +427,19 @@ def test_a_scenario_run_interrupted_then_resumed_is_bitwise(config: dict, tmp_pa
     config = {**config, "output": {"checkpoint_every": 0, "frames_every": 0,
                                    "snapshot": False}}
     assert_resume_is_bitwise(config, tmp_path, 100)
+
+
+def test_frames_from_skips_the_transient(tmp_path: Path) -> None:
+    """output.frames_from: no frame before that time, then one every frames_every steps,
+    starting with the first due step at or after it."""
+    config = settle(steps=600, frames_every=100, checkpoint_every=0, snapshot=False,
+                    frames_from=0.25)
+    rundir = tmp_path / "run"
+    run_config(config, rundir, progress="none")
+    frames = list(read_frames(rundir / FRAMES))
+    times = [f.time for f in frames]
+    steps = [f.step for f in frames]
+    assert len(frames) >= 2 and min(times) >= 0.25 * (1 - 1e-12)
+    assert steps == list(range(steps[0], 601, 100))
+    every = times[1] - times[0]
+    assert times[0] - every < 0.25  # the due frame before it was skipped

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from grainflow.config.units import DIMENSIONS, parse_quantity, parse_unit
+from grainflow.units import DIMENSIONS, parse_quantity, parse_unit
 
 
 @pytest.mark.parametrize(

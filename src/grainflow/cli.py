@@ -148,8 +148,9 @@ def demo(
 def study(
     name: Annotated[str, typer.Argument(help="Which study: 'hopper' (seed 003, soft "
                                         "particles), 'hopper-dp' (seed 003, deformable "
-                                        "rings; docs/dp.md) or 'jet' (seed 002, granular "
-                                        "jets; docs/jets.md).")],
+                                        "rings; docs/dp.md), 'jet' (seed 002, granular "
+                                        "jets; docs/jets.md) or 'stream' (seed 000, "
+                                        "cohesive streams; docs/streams.md).")],
     output: Annotated[Path | None, typer.Option("--output", "-o",
                                                 help="Study directory (default: NAME_study).")]
     = None,
@@ -164,14 +165,16 @@ def study(
 ) -> None:
     """Reproduce a seed study through the sweep engine and write its report.md."""
     with _errors():
-        if name not in ("hopper", "hopper-dp", "jet"):
+        if name not in ("hopper", "hopper-dp", "jet", "stream"):
             raise UsageError(f"study: {name!r} is not known; available: hopper, hopper-dp, "
-                             "jet")
+                             "jet, stream")
         if convention not in ("authors", "grainflow"):
             raise UsageError(f"--convention: {convention!r} is not valid; use 'authors' or "
                              "'grainflow'")
         if name == "jet":
             from grainflow.studies.jet_study import reproduce
+        elif name == "stream":
+            from grainflow.studies.stream_study import reproduce
         elif name == "hopper-dp":
             if convention != "authors":
                 raise UsageError("--convention: the DP study runs on the authors' "

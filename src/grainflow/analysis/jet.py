@@ -69,6 +69,8 @@ from scipy.optimize import least_squares
 
 from grainflow.analysis.cg import CGFields
 from grainflow.analysis.coarse_grain import _frozen
+from grainflow.analysis.checks import non_negative as _non_negative
+from grainflow.analysis.checks import positive as _positive
 from grainflow.analysis.rheology import FitStatistics
 from grainflow.frame import ANCHOR, PAIR, Frame
 
@@ -96,26 +98,6 @@ GrainSelection = None | Sequence[int] | Callable[[Frame], np.ndarray]
 # --------------------------------------------------------------------------------------------
 # Input checks and geometry
 # --------------------------------------------------------------------------------------------
-
-
-def _positive(name: str, value: float) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a positive number, got {value!r}") from None
-    if not (np.isfinite(x) and x > 0):
-        raise ValueError(f"{name}: expected a positive finite number, got {value!r}")
-    return x
-
-
-def _non_negative(name: str, value: float) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number >= 0, got {value!r}") from None
-    if not (np.isfinite(x) and x >= 0):
-        raise ValueError(f"{name}: expected a finite number >= 0, got {value!r}")
-    return x
 
 
 def _check_weighting(weighting: str) -> str:

@@ -25,7 +25,7 @@ from typing import Annotated, Any, Literal
 from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, StrictInt, create_model,
                       model_validator)
 
-from grainflow.config.units import parse_quantity
+from grainflow.units import parse_quantity
 from grainflow.models.base import ContactLaw
 from grainflow.models.registry import PRESETS, SUBMODELS, composition, submodel
 from grainflow.models.submodel import SLOTS, Param

@@ -7,7 +7,7 @@ the field by its dotted path, the value, and what would be valid::
     particles[0].radius[0]: -0.001 is not valid; expected a value greater than 0
 
 Quantities may carry units (``"200 um"``, ``"100 nN"``); they are converted to SI by
-:func:`grainflow.config.units.parse_quantity`. Bare numbers pass unchanged, so studies in
+:func:`grainflow.units.parse_quantity`. Bare numbers pass unchanged, so studies in
 reduced units simply write numbers. The reference of every field is ``docs/config.md``.
 """
 
@@ -27,7 +27,7 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Di
 
 from grainflow.config.contact import Contact
 from grainflow.config.regions import region_of
-from grainflow.config.units import parse_quantity
+from grainflow.units import quantity
 from grainflow.scenarios import COMMON_SECTIONS, Scenario, get_scenario
 
 __all__ = ["ConfigError", "RunConfig", "load_config", "resolved_dict"]
@@ -42,22 +42,6 @@ class ConfigError(ValueError):
 
 
 # ------------------------------------------------------------------------- field types
-def _to_si(dimension: str | None) -> BeforeValidator:
-    def convert(value: Any) -> Any:
-        try:
-            return parse_quantity(value, dimension, field="\0")
-        except ValueError as err:
-            raise ValueError(str(err).removeprefix("\0: ")) from None
-    return BeforeValidator(convert)
-
-
-def quantity(dimension: str | None, **constraints: Any) -> Any:
-    """A float that may be written with a unit of ``dimension`` (converted to SI)."""
-    if constraints.pop("allow_inf_nan", False):  # pydantic's float default
-        return Annotated[float, _to_si(dimension), Field(**constraints)]
-    return Annotated[float, _to_si(dimension), Field(allow_inf_nan=False, **constraints)]
-
-
 def _one_per_axis(value: list[Any], info: ValidationInfo) -> list[Any]:
     dim = (info.context or {}).get("dim", 3)
     if len(value) != dim:
@@ -146,6 +130,8 @@ class OutputSection(_Model):
 
     thermo_every: Steps = Field(100, description="thermo.csv row every N steps")
     frames_every: Count = Field(1000, description="frame into frames.h5 every N steps; 0: none")
+    frames_from: quantity("time", ge=0) = Field(
+        0.0, description="no frames before this simulated time (a transient not kept)")
     contacts: StrictBool = Field(False, description="store each frame's contact list")
     compression: Literal["gzip", "lzf", "none"] = "gzip"
     checkpoint_every: Count = Field(10000, description="checkpoint every N steps; 0: only at "

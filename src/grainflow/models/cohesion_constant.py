@@ -61,3 +61,26 @@ class ConstantCohesion(CohesionModel):
     @classmethod
     def reach(cls, cols: np.ndarray) -> float:
         return float(cols[..., 1].max()) if cols.size else 0.0
+
+
+def capture_velocity(cohesion_force: float, cohesion_range: float, mass: float,
+                     restitution: float) -> float:
+    """``v_c = (2/e) sqrt(F_c delta_c / m)``: the head-on approach speed below which two
+    grains of mass ``m`` stay bound (PARAMETERS.md, seed 000's capture velocity).
+
+    The pair (m_eff = m/2) leaves contact at ``e v`` and must pay ``W = F_c delta_c`` to
+    leave the shell: ``m_eff (e v)^2 / 2 = W`` at the threshold.
+    """
+    return 2.0 / restitution * math.sqrt(cohesion_force * cohesion_range / mass)
+
+
+def effective_restitution(speed: float | np.ndarray, cohesion_force: float,
+                          cohesion_range: float, mass: float,
+                          restitution: float) -> float | np.ndarray:
+    """``e_eff = e sqrt(1 - v_c^2/v^2)`` for a head-on approach at ``speed`` above the
+    capture velocity (:func:`capture_velocity`), 0 below it (PARAMETERS.md, seed 000)."""
+    vc = capture_velocity(cohesion_force, cohesion_range, mass, restitution)
+    v = np.asarray(speed, dtype=float)
+    ratio = np.divide(vc * vc, v * v, out=np.full(v.shape, np.inf), where=v > 0)
+    out = restitution * np.sqrt(np.clip(1.0 - ratio, 0.0, None))
+    return float(out) if out.ndim == 0 else out

@@ -44,7 +44,7 @@ class Param:
     """One parameter of a sub-model (one column of the law's table, or a config-only input).
 
     ``dimension``: the physical dimension of the value (``"stiffness"``, ``"time"`` ...; see
-    :mod:`grainflow.config.units`) so that config files may write units; None for numbers
+    :mod:`grainflow.units`) so that config files may write units; None for numbers
     whose unit depends on a convention. ``default``: a number, a function of the other
     parameters of the row (e.g. ``kt = 2/7 kn``), or None for a required parameter.
     ``lower``/``strict``: the value must be ``> lower`` (strict) or ``>= lower``;

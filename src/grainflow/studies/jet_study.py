@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from grainflow.studies.points import SweepPoints, run_sweeps
+
 #: Seed values (thesis Chapters 4-6; PARAMETERS.md "Seed 002"), with their quoted
 #: uncertainty where the thesis gives one (else None: the issue's 10 % applies).
 SEED: dict[str, tuple[float, float | None]] = {
@@ -204,29 +206,6 @@ def anisotropy_summary(rundir: str | Path) -> dict[str, float]:
 
 
 # ----------------------------------------------------------------------------- collection
-@dataclass
-class _Points:
-    """Done points of one sweep: parameters, summaries, run directories, CPU seconds."""
-
-    params: list[dict[str, Any]] = field(default_factory=list)
-    summaries: list[dict[str, float]] = field(default_factory=list)
-    rundirs: list[Path] = field(default_factory=list)
-    cpu: float = 0.0
-
-
-def _points(sweepdir: Path) -> _Points:
-    from grainflow.sweep import Catalog
-
-    out = _Points()
-    with Catalog.in_dir(sweepdir) as catalog:
-        for row in catalog.rows("done"):
-            out.params.append(dict(row.params))
-            out.summaries.append(dict(row.summary))
-            out.rundirs.append(sweepdir / row.rundir)
-            out.cpu += float(row.wall_time or 0.0)
-    return out
-
-
 def _mean_by(keys: list[float], values: list[float]) -> tuple[np.ndarray, np.ndarray,
                                                                np.ndarray]:
     """Replica mean and its standard error (replica spread / sqrt(n); a single replica's
@@ -241,7 +220,7 @@ def _mean_by(keys: list[float], values: list[float]) -> tuple[np.ndarray, np.nda
     return ks, mean, err
 
 
-def _rheology_3d(points: _Points, window: tuple[float, float]
+def _rheology_3d(points: SweepPoints, window: tuple[float, float]
                  ) -> tuple[dict[tuple[float, float], Any], dict[float, dict[str, tuple]]]:
     """The 3D rheology sweep, each run's frames read once: pooled layer fields per
     (phi_tilde, mu_p), and per mu_p the flatness per component at phi_tilde = 0.9
@@ -265,7 +244,7 @@ def _rheology_3d(points: _Points, window: tuple[float, float]
     return {key: pool(layers) for key, layers in sorted(groups.items())}, flatness
 
 
-def _layers_2d(points: _Points, window: tuple[float, float]) -> dict[float, tuple[Any, Any]]:
+def _layers_2d(points: SweepPoints, window: tuple[float, float]) -> dict[float, tuple[Any, Any]]:
     """Pooled layers (a) and (b) per phi_tilde of the 2D rheology sweep."""
     from grainflow.analysis.jet_rheology import layer_fields_2d, pool
 
@@ -278,7 +257,7 @@ def _layers_2d(points: _Points, window: tuple[float, float]) -> dict[float, tupl
             for phi, reps in sorted(groups.items())}
 
 
-def _dead_zone_line(label: str, points: _Points, match: dict[str, float],
+def _dead_zone_line(label: str, points: SweepPoints, match: dict[str, float],
                     window: tuple[float, float]) -> str:
     """One report line: the dead zone of the first replica matching ``match``."""
     from grainflow.analysis.jet import dead_zone
@@ -332,15 +311,10 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         plot_pressure_ratio,
         plot_stress_profiles,
     )
-    from grainflow.sweep import run_sweep
 
     plan = REDUCED if reduced else FULL
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    points: dict[str, _Points] = {}
-    for name, spec in sweep_specs(plan).items():
-        run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress="plain")
-        points[name] = _points(out / name)
+    points = run_sweeps(sweep_specs(plan), out, scheduler=scheduler, n_workers=n_workers)
 
     lines = [f"# Granular jets (seed 002) — {'reduced' if reduced else 'full'} version", ""]
     if plan.reductions:

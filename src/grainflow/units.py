@@ -12,8 +12,11 @@ from __future__ import annotations
 
 import re
 from decimal import Decimal
+from typing import Annotated, Any
 
-__all__ = ["DIMENSIONS", "parse_quantity", "parse_unit"]
+from pydantic import BeforeValidator, Field
+
+__all__ = ["DIMENSIONS", "parse_quantity", "parse_unit", "quantity"]
 
 Dim = tuple[int, int, int]  # exponents of (mass, length, time)
 
@@ -169,3 +172,21 @@ def _example(dim: Dim | None) -> str:
         return "'200 um'"
     unit = DIMENSIONS[_NAMES[dim]][1] if dim in _NAMES else _describe(dim)
     return f"'200 {unit}'" if unit else "'200'"
+
+
+def _to_si(dimension: str | None) -> BeforeValidator:
+    def convert(value: Any) -> Any:
+        try:
+            return parse_quantity(value, dimension, field="\0")
+        except ValueError as err:
+            raise ValueError(str(err).removeprefix("\0: ")) from None
+    return BeforeValidator(convert)
+
+
+def quantity(dimension: str | None, **constraints: Any) -> Any:
+    """A pydantic float field type that may be written with a unit of ``dimension`` and is
+    converted to SI (``quantity("length", gt=0)`` accepts ``"200 um"`` and stores 2e-4);
+    used by the config schema and by scenario sections written in SI units."""
+    if constraints.pop("allow_inf_nan", False):  # pydantic's float default
+        return Annotated[float, _to_si(dimension), Field(**constraints)]
+    return Annotated[float, _to_si(dimension), Field(allow_inf_nan=False, **constraints)]

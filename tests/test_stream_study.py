@@ -1,0 +1,66 @@
+"""The stream study (seed 000): its sweeps, its verdicts, and its per-run analysis on a saved
+run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grainflow.studies import stream_study
+from grainflow.studies.stream_study import FULL, REDUCED, SEED, sweep_specs
+
+
+def test_the_sweeps_of_both_plans_validate_and_cover_the_seed() -> None:
+    full = sweep_specs(FULL)
+    assert len(full["phase"].points()) == 5 * len(FULL.cohesion_nN)
+    forces = {p.overrides["stream.cohesion_force"] for p in full["phase"].points()}
+    assert {"1 nN", "100 nN", "2000 nN"} <= forces
+    assert {p.overrides["stream.restitution"] for p in full["phase"].points()} == {
+        1.0, 0.88, 0.73, 0.61, 0.40}
+    reduced = sweep_specs(REDUCED)
+    assert len(reduced["phase"].points()) == 8
+    # the shell sweep keeps W = F_c delta at its base value (1000 nN x 100 nm)
+    for p in reduced["shell"].points():
+        f = float(p.overrides["stream.cohesion_force"].split()[0])
+        d = float(p.overrides["stream.cohesion_range"].split()[0])
+        assert f * d == pytest.approx(1000 * 100)
+
+
+def test_verdicts_use_thirty_percent_and_bounds() -> None:
+    assert stream_study._verdict("v0 at the aperture (cm/s)", 12.9, 0.1)[1] == "agrees"
+    assert stream_study._verdict("v0 at the aperture (cm/s)", 13.1, 0.1)[1] == "misses"
+    assert stream_study._verdict("N_inf, clustering (F_c < 100 nN)", 5.0, None)[1] == "agrees"
+    assert stream_study._verdict("N_inf, clustering (F_c < 100 nN)", 40.0, None)[1] == "misses"
+    assert stream_study._verdict("most probable aspect ratio", None, None) == ("not measured",
+                                                                               "—")
+    assert set(SEED) >= {"peak network size, droplets", "droplet separation velocity (cm/s)"}
+
+
+def test_per_run_analysis_of_a_cohesionless_stream(tiny_stream_run: Path) -> None:
+    """A cohesionless stream is a spray: one network per grain deep down, no droplets, a
+    steady outflow, and the saved profiles are there for the report."""
+    summary = stream_study.stream_summary(tiny_stream_run)
+    assert summary["frames"] >= 10
+    assert 0.05 < summary["v0"] < 0.5
+    assert summary["outflow"] > 0 and summary["outflow_cv"] < 0.5
+    assert summary["droplets"] == 0
+    assert summary["N_inf"] < 2.0
+    assert stream_study.REGIME_NAMES[int(summary["regime"])] == "spray"
+    assert 0 < summary["dz"] < 0.01
+    saved = np.load(tiny_stream_run / "stream_analysis.npz")
+    assert saved["network"].shape == saved["network_depth"].shape
+
+
+def test_measured_capture_velocity_matches_the_analytic_form() -> None:
+    measured, analytic = stream_study.measured_capture_velocity(0.40, 100.0, iterations=7)
+    assert measured == pytest.approx(analytic, rel=0.02)
+
+
+def test_crossover_brackets_per_restitution() -> None:
+    e = np.array([0.4, 0.4, 0.4, 0.4, 0.88, 0.88, 0.61])
+    fc = np.array([0.0, 30.0, 300.0, 1000.0, 30.0, 1000.0, 100.0])
+    regime = ["spray", "clustering", "droplets", "droplets", "clustering", "droplets",
+              "clustering"]
+    assert stream_study._crossovers(e, fc, regime) == {0.4: (30.0, 300.0), 0.88: (30.0, 1000.0)}
