@@ -546,3 +546,12 @@ def test_stream_side_view_and_movie(tmp_path):
             movie.seek(k)
             sizes.add(movie.size)
         assert sizes == {size} and size[0] > 100 and size[1] > 100
+
+
+def test_contact_against_capture_velocity_plot(tmp_path):
+    from grainflow.plotting.stream_plots import plot_contact_vs_capture
+
+    check_png(plot_contact_vs_capture([0.0, 1e-3, 3e-3, 0.0, 2e-3], [0.0, 0.5, 2.0, 0.1, 1.0],
+                                      [0.88, 0.88, 0.88, 0.4, 0.4], tmp_path / "c.png"))
+    with pytest.raises(ValueError, match="capture_velocity"):
+        plot_contact_vs_capture([1.0, 2.0], [1.0], [0.4, 0.4], tmp_path / "bad.png")

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib.ticker import FuncFormatter, NullFormatter
 from numpy.typing import ArrayLike
 
 from grainflow.analysis.stream import (REGIMES, AspectHistogram, ContactProfiles, DepthProfile,
@@ -26,7 +27,7 @@ from grainflow.plotting.figures import new_figure, save_figure
 
 __all__ = ["plot_contact_number", "plot_network_size", "plot_velocity_deviations",
            "plot_aspect_histogram", "plot_droplet_separations", "plot_phase_diagram",
-           "plot_stream_side", "write_stream_movie"]
+           "plot_stream_side", "write_stream_movie", "plot_contact_vs_capture"]
 
 _CM = 100.0
 #: Marker of each regime in the phase diagram (anything else: "x").
@@ -366,3 +367,32 @@ def write_stream_movie(frames: Sequence[Frame], path: str | Path, delta: float, 
     out.parent.mkdir(parents=True, exist_ok=True)
     pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=frame_ms, loop=0)
     return out
+
+
+def plot_contact_vs_capture(capture_velocity: ArrayLike, mean_contact_number: ArrayLike,
+                            restitution: ArrayLike, path: str | Path) -> Path:
+    """Mean contact number against the binary capture velocity v_c = (2/e) sqrt(F_c delta/m),
+    one series per restitution (seed Fig. 8b: plotted against v_c rather than F_c, streams of
+    different e come together). Cohesionless streams (v_c = 0) are left out of the log axis."""
+    vc = np.asarray(capture_velocity, dtype=float)
+    z = np.asarray(mean_contact_number, dtype=float)
+    e = np.asarray(restitution, dtype=float)
+    if vc.ndim != 1 or vc.shape != z.shape or vc.shape != e.shape:
+        raise ValueError("capture_velocity, mean_contact_number, restitution: expected 1-D "
+                         f"arrays of one length, got {vc.shape}, {z.shape}, {e.shape}")
+    fig = new_figure(1)
+    ax = fig.subplots()
+    for value in sorted(set(e.tolist()), reverse=True):
+        sel = (e == value) & (vc > 0) & np.isfinite(z)
+        order = np.argsort(vc[sel])
+        ax.plot(vc[sel][order] * 1e3, z[sel][order], "o-", ms=4, label=f"e = {value:g}")
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xticks([t for t in (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100)
+                   if np.any(vc > 0) and 0.5 * vc[vc > 0].min() * 1e3 <= t
+                   <= 2 * vc.max() * 1e3])
+    ax.set_xlabel(r"capture velocity $v_c$ [mm/s]")
+    ax.set_ylabel(r"$\langle Z\rangle$")
+    ax.legend(fontsize=7, frameon=False)
+    return save_figure(fig, path)

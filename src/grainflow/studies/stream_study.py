@@ -203,9 +203,8 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
             "N_inf": n_inf.value, "N_inf_err": n_inf.err, "N_inf_depth": n_inf.depth,
             "N_peak": float(peak), "dz": fit.dz, "dz_err": fit.dz_err,
             "droplets": float(len(droplets)),
-            "regime": float(["spray", "clustering", "droplets", "dripping"].index(
-                regime.regime)) if regime.regime in ("spray", "clustering", "droplets",
-                                                      "dripping") else -1.0,
+            "regime": float(REGIME_NAMES.index(regime.regime))
+            if regime.regime in REGIME_NAMES else -1.0,
             "frames": float(len(frames))}
 
 
@@ -323,6 +322,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     from grainflow.analysis.stream.fluctuations import fit_free_fall_profile
     from grainflow.models.cohesion_constant import capture_velocity
     from grainflow.plotting.stream_plots import (plot_aspect_histogram, plot_contact_number,
+                                                 plot_contact_vs_capture,
                                                  plot_droplet_separations, plot_network_size,
                                                  plot_phase_diagram, plot_stream_side,
                                                  plot_velocity_deviations, write_stream_movie)
@@ -374,7 +374,10 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     if len(fc):
         plot_phase_diagram(fc * 1e-9, e, [s["Z_4cm"] for s in summ], regime,
                            out / "phase_diagram.png")
-        lines.append("![phase diagram](phase_diagram.png)")
+        vcs = [capture_velocity(f * 1e-9, base.cohesion_range, m, x) for f, x in zip(fc, e)]
+        plot_contact_vs_capture(vcs, [s["Z_4cm"] for s in summ], e, out / "capture.png")
+        lines += ["![phase diagram](phase_diagram.png)",
+                  "![<Z> against the capture velocity](capture.png)"]
 
     # profiles per e
     npz = {i: np.load(rd / "stream_analysis.npz") for i, rd in enumerate(ph.rundirs)
