@@ -278,6 +278,10 @@ REGIME_NAMES = ("spray", "clustering", "droplets", "dripping")
 
 
 def _profile(npz: Any, name: str, depth: str) -> Any:
+    """A :class:`~grainflow.analysis.stream.DepthProfile` back from a run's
+    ``stream_analysis.npz`` (means, errors and sample counts as :func:`stream_summary` saved
+    them; the per-bin frame counts are not saved, so the sample counts stand in for them and
+    ``n_frames`` is 1: the report only draws these profiles and reads values off them)."""
     from grainflow.analysis.stream import DepthProfile
 
     centres = np.asarray(npz[depth])
