@@ -238,6 +238,10 @@ class _Run:
         self.start = (time.perf_counter(), sim.particle_steps)
         thermo = ThermoLog(self.rundir / THERMO, resume_step)
         frames = self._frames(resume_step) if out.frames_every else None
+
+        def save_frame(s: Simulation) -> None:
+            if frames is not None and s.time >= out.frames_from * (1 - 1e-12):
+                frames.append(s.frame(contacts=out.contacts))
         stop = _StopRequest()
         try:
             with stop.installed():
@@ -245,15 +249,11 @@ class _Run:
                     sim.compute_forces(update=False)
                     self.checkpoint(sim)  # its health check comes before anything is written
                     thermo(sim.observer_context)
-                    if frames is not None and out.frames_from <= 0:
-                        frames.append(sim.frame(contacts=out.contacts))
+                    save_frame(sim)
                 else:
                     self.checkpoint_step = sim.step
                 sim.add_observer(thermo, out.thermo_every)
                 if frames is not None:
-                    def save_frame(s: Simulation) -> None:
-                        if s.time >= out.frames_from * (1 - 1e-12):
-                            frames.append(s.frame(contacts=out.contacts))
                     sim.add_observer(save_frame, out.frames_every)
                 sim.add_observer(lambda s: self.progress.update(s.step, s.state.n,
                                                                 self.rate()), UNTIL_EVERY,

@@ -25,16 +25,10 @@ from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 from scipy.special import gammainc
 
+from grainflow.analysis.checks import frozen as _frozen
 from grainflow.frame import Frame
 
 _POINTS_PER_CHUNK = 4096
-
-
-def _frozen(values: ArrayLike) -> np.ndarray:
-    """A read-only float copy of ``values`` (results never alias the caller's arrays)."""
-    out = np.array(values, dtype=float, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 def _unit_up(up: ArrayLike | None, dim: int) -> np.ndarray:

@@ -29,7 +29,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import curve_fit
 
-from grainflow.analysis.coarse_grain import _frozen, _unit_up
+from grainflow.analysis.checks import frozen as _frozen
+from grainflow.analysis.coarse_grain import _unit_up
 
 
 def _as_1d(name: str, values: ArrayLike) -> np.ndarray:

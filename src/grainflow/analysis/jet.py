@@ -68,7 +68,8 @@ from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
 from grainflow.analysis.cg import CGFields
-from grainflow.analysis.coarse_grain import _frozen
+from grainflow.analysis.checks import frozen as _frozen
+from grainflow.analysis.checks import each_frame, paired_arrays
 from grainflow.analysis.checks import non_negative as _non_negative
 from grainflow.analysis.checks import positive as _positive
 from grainflow.analysis.rheology import FitStatistics
@@ -112,12 +113,7 @@ def _check_window(window: tuple[float, float] | None) -> None:
 
 
 def _each_frame(frames: Frame | Iterable[Frame]) -> Iterator[Frame]:
-    if isinstance(frames, Frame):
-        frames = [frames]
-    for frame in frames:
-        if not isinstance(frame, Frame):
-            raise ValueError(f"frames: expected Frame objects, got {type(frame).__name__}")
-        yield frame
+    return each_frame(frames)
 
 
 def _in_window(frame: Frame, window: tuple[float, float] | None) -> bool:
@@ -849,12 +845,7 @@ class Psi0Fit(FitStatistics):
 
 def _fit_arrays(X: ArrayLike, psi0: ArrayLike, psi0_err: ArrayLike | None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    x = np.asarray(X, dtype=float)
-    y = np.asarray(psi0, dtype=float)
-    if x.ndim != 1:
-        raise ValueError(f"X: expected a 1-D array, got shape {x.shape}")
-    if y.shape != x.shape:
-        raise ValueError(f"psi0: expected shape {x.shape} like X, got {y.shape}")
+    x, y = paired_arrays("X", X, "psi0", psi0)
     if not np.all(np.isfinite(x)) or np.any(x <= 0):
         raise ValueError("X: values must be finite and > 0")
     if not np.all(np.isfinite(y)):

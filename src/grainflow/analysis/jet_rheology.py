@@ -47,6 +47,7 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike
 
+from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.cg import (CGFields, Cartesian, Cylindrical, Heaviside, coarse_grain_grids,
                                    combine)
 from grainflow.analysis.kinetic_theory import RANDOM_CLOSE_PACKING, pressure_ratio
@@ -285,12 +286,6 @@ def _values(mesh: _Mesh, main: CGFields, half: CGFields, shifted: CGFields, diam
 VALUE_NAMES = ("phi", "n", "velocity", "T_g", "T_alpha", "sigma", "P", "dvr_dz", "dvz_dr",
                "dvy_dx", "dvx_dy", "D", "mu", "mu_folded", "I", "I_T", "shear_ratio",
                "P_over_nT", "P_alpha_over_nT_alpha")
-
-
-def _frozen(arr: np.ndarray) -> np.ndarray:
-    out = np.array(arr, dtype=float)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True)

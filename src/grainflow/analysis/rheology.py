@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import OptimizeWarning, curve_fit
 
-from grainflow.analysis.coarse_grain import _frozen
+from grainflow.analysis.checks import frozen as _frozen
 
 # --------------------------------------------------------------------------------------------
 # Stress, pressure and dimensionless numbers

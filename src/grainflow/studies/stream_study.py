@@ -126,23 +126,23 @@ def _section(config: dict[str, Any]) -> Any:
     return StreamSection(**config["stream"])
 
 
-def _window_frames(rundir: Path) -> tuple[list[Any], dict[str, Any]]:
+def _window_frames(rundir: Path) -> tuple[list[Any], Any]:
+    """The run's frames from :func:`_steady_start` on, and its ``[stream]`` section."""
     import tomllib
 
     from grainflow.io.h5md import read_frames
 
-    config = tomllib.loads((rundir / "config.toml").read_text())
-    start = _steady_start(config)
+    section = _section(tomllib.loads((rundir / "config.toml").read_text()))
+    start = _steady_start(section)
     frames = [f for f in read_frames(rundir / "frames.h5") if f.time >= start - 1e-12]
-    return frames, config
+    return frames, section
 
 
-def _steady_start(config: dict[str, Any]) -> float:
-    """When the stream has reached ``stream_depth``: the opening time plus the free-fall time
-    from the aperture at 10 cm/s, plus 10 ms."""
+def _steady_start(s: Any) -> float:
+    """When the stream of section ``s`` has reached ``stream_depth``: the opening time plus
+    the free-fall time from the aperture at 10 cm/s, plus 10 ms."""
     from grainflow.scenarios.stream import GRAVITY
 
-    s = _section(config)
     v0 = 0.10
     fall = (math.sqrt(v0 * v0 + 2 * GRAVITY * s.stream_depth) - v0) / GRAVITY
     return s.open_time + fall + 0.01
@@ -159,10 +159,9 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
                                            velocity_deviation_profile)
 
     rundir = Path(rundir)
-    frames, config = _window_frames(rundir)
+    frames, s = _window_frames(rundir)
     if len(frames) < 3:
         raise ValueError(f"{rundir}: fewer than 3 frames in the steady window; run longer")
-    s = _section(config)
     depth_range = (0.0, s.stream_depth)
     speed = aperture_speed(frames)
     flow = outflow_steadiness(frames)

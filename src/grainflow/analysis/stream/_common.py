@@ -13,7 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from grainflow.analysis.checks import each_frame
 from grainflow.analysis.checks import finite as _finite
+from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.checks import non_negative as _non_negative
 from grainflow.analysis.checks import positive as _positive
 from grainflow.frame import Frame
@@ -27,13 +29,6 @@ __all__ = ["GRAVITY", "DepthProfile", "ProfileValue", "depth_profile", "profile_
 # --------------------------------------------------------------------------------------------
 # Input checks
 # --------------------------------------------------------------------------------------------
-
-
-def _frozen(values: ArrayLike, dtype: type = float) -> np.ndarray:
-    """A read-only copy of ``values`` (results never alias the caller's arrays)."""
-    out = np.array(values, dtype=dtype, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 def _count(name: str, value: int, minimum: int = 0) -> int:
@@ -75,20 +70,7 @@ def _radii(radii: ArrayLike, n: int) -> np.ndarray:
 
 
 def _each_frame(frames: Frame | Iterable[Frame]) -> Iterator[Frame]:
-    if isinstance(frames, Frame):
-        frames = [frames]
-    try:
-        iterator = iter(frames)
-    except TypeError:
-        raise ValueError(f"frames: expected a Frame or an iterable of Frames, got "
-                         f"{type(frames).__name__}") from None
-    for frame in iterator:
-        if not isinstance(frame, Frame):
-            raise ValueError(f"frames: expected Frame objects, got {type(frame).__name__}")
-        if frame.dim != 3:
-            raise ValueError(f"frames: the stream analyses need 3D frames, got a "
-                             f"{frame.dim}D frame at step {frame.step}")
-        yield frame
+    return each_frame(frames, dim=3, who="the stream analyses")
 
 
 def _grain_mask(frame: Frame, grain_type: int | None) -> np.ndarray:

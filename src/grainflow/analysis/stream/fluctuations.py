@@ -49,6 +49,7 @@ from scipy.optimize import least_squares
 from scipy.spatial import cKDTree
 
 from grainflow.analysis.rheology import FitStatistics
+from grainflow.analysis.checks import paired_arrays
 from grainflow.analysis.stream._common import (GRAVITY, DepthProfile, _count, _each_frame,
                                                _finite, _frame_diameter, _frozen, _grain_mask,
                                                _positions, _positive, _ProfileAccumulator,
@@ -302,12 +303,7 @@ def fit_free_fall_deviation(
     :class:`FreeFallFit`; least squares by :func:`scipy.optimize.least_squares`, error from
     the Jacobian, (J^T J)^-1.
     """
-    z = np.asarray(depth, dtype=float)
-    y = np.asarray(dv2_axial, dtype=float)
-    if z.ndim != 1:
-        raise ValueError(f"depth: expected a 1-D array, got shape {z.shape}")
-    if y.shape != z.shape:
-        raise ValueError(f"dv2_axial: expected shape {z.shape} like depth, got {y.shape}")
+    z, y = paired_arrays("depth", depth, "dv2_axial", dv2_axial)
     v0_ = _finite("v0", v0)
     g_ = _positive("g", g)
     if (sigma is not None) + (counts is not None) + bool(relative) > 1:
