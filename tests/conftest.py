@@ -289,3 +289,17 @@ def tiny_stream_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     with one_thread():
         run_config(config, rundir, progress="none")
     return rundir
+
+
+#: Six disks colliding in a periodic 2D box for 300 steps: the smallest whole run (the CLI and
+#: movie tests add their own ``output`` table).
+SIX_DISKS: dict = {
+    "dim": 2,
+    "run": {"steps": 300},
+    "box": {"lo": [0, 0], "hi": [8, 8], "periodic": [True, True]},
+    "particles": [{"fill": "list", "positions": [[1, 1], [2.2, 1], [4, 4], [5.2, 4.1],
+                                                  [1, 6], [2.3, 6]],
+                   "velocities": [[1, 0], [-1, 0], [0.5, 0], [-0.5, 0], [0, 0.2], [0, 0]],
+                   "radius": [0.5, 0.55]}],
+    "contact": {"law": "granular", "restitution": 0.8, "contact_time": 0.05, "mu": 0.5},
+}

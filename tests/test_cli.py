@@ -13,23 +13,16 @@ import pytest
 import tomli_w
 from typer.testing import CliRunner
 
+from conftest import SIX_DISKS
 from grainflow import __version__
 from grainflow.cli import app
 
-VERBS = ["run", "resume", "info", "export", "demo", "bench", "study", "sweep", "sweep-status"]
+VERBS = ["run", "resume", "info", "export", "view", "demo", "bench", "study", "sweep",
+         "sweep-status", "docs"]
 
 #: Six disks colliding in a periodic 2D box; 300 steps.
 TINY: dict[str, Any] = {
-    "dim": 2,
-    "run": {"steps": 300},
-    "output": {"thermo_every": 50, "frames_every": 100, "checkpoint_every": 100},
-    "box": {"lo": [0, 0], "hi": [8, 8], "periodic": [True, True]},
-    "particles": [{"fill": "list", "positions": [[1, 1], [2.2, 1], [4, 4], [5.2, 4.1],
-                                                  [1, 6], [2.3, 6]],
-                   "velocities": [[1, 0], [-1, 0], [0.5, 0], [-0.5, 0], [0, 0.2], [0, 0]],
-                   "radius": [0.5, 0.55]}],
-    "contact": {"law": "granular", "restitution": 0.8, "contact_time": 0.05, "mu": 0.5},
-}
+    **SIX_DISKS, "output": {"thermo_every": 50, "frames_every": 100, "checkpoint_every": 100}}
 
 
 @pytest.fixture(autouse=True)
@@ -131,6 +124,9 @@ BAD = [
     (["study", "jets", "-o", "{dir}/s"], 2, "study: 'jets' is not known"),
     (["study", "hopper", "-o", "{dir}/s", "--convention", "paper"], 2,
      "--convention: 'paper' is not valid"),
+    (["study", "stream", "-o", "{dir}/s", "--progress", "loud"], 2,
+     "--progress: 'loud' is not valid"),
+    (["view", "{dir}"], 2, "no frames.h5 in this run directory"),
 ]
 
 

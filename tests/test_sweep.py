@@ -286,6 +286,20 @@ def test_killed_worker_does_not_lose_the_sweep(tmp_path, scheduler):
     assert "8/8" in output.file.getvalue()
 
 
+def test_progress_none_prints_no_status_lines(tmp_path, scheduler):
+    """``progress="none"`` (what a study passes on for a silent run) prints no status lines,
+    while the plain display of the same sweep does."""
+    output = Console(file=io.StringIO(), force_terminal=False, width=120)
+    result = run_sweep(make_spec(tmp_path), tmp_path / "quiet", scheduler=scheduler,
+                       progress="none", console=output)
+    assert result.ok and result.counts["done"] == 8
+    assert "pending" not in output.file.getvalue() and "ETA" not in output.file.getvalue()
+    plain = Console(file=io.StringIO(), force_terminal=False, width=120)
+    run_sweep(make_spec(tmp_path), tmp_path / "plain", scheduler=scheduler, progress="plain",
+              console=plain)
+    assert "8/8 done" in plain.file.getvalue() and "ETA" in plain.file.getvalue()
+
+
 def test_failed_analysis_is_redone_without_rerunning_the_simulation(tmp_path, scheduler):
     sweepdir = tmp_path / "sweep"
     spec = make_spec(tmp_path, analyses=["sweep_helpers:flaky_analysis"])

@@ -1,4 +1,4 @@
-"""The ``grainflow`` command: run, resume, inspect and export simulations.
+"""The ``grainflow`` command: run, resume, inspect, export and view simulations.
 
 Exit codes: 0 success; 1 the run failed (unstable, or an unexpected error); 2 bad input
 (invalid config or value, unusable run directory, bad option); 128 + signal number when
@@ -131,13 +131,61 @@ def export(
 
 
 @app.command()
+def view(
+    run: Annotated[Path, typer.Argument(help="Run directory (or a frames.h5 trajectory file).")],
+    output: Annotated[Optional[Path], typer.Option(
+        "--output", "-o", help="Movie file: .mp4 (H.264) or .gif; default RUN/movie.mp4.")] = None,
+    poster: Annotated[Optional[Path], typer.Option(
+        help="Poster picture (.png) of the last frame shown; default RUN/poster.png.")] = None,
+    color_by: Annotated[str, typer.Option(
+        "--color-by", help="Grain colour: speed, type, network (contact network size, log "
+                           "scale), radius, mass, omega, body, id or depth.")] = "speed",
+    delta: Annotated[float, typer.Option(
+        help="Contact distance margin of --color-by network, in the run's length unit "
+             "(0: touching).")] = 0.0,
+    every: Annotated[int, typer.Option(help="Show every K-th frame.")] = 1,
+    frames: Annotated[Optional[str], typer.Option(
+        help="Range of frame numbers a:b (e.g. 0:50, -20:); default all.")] = None,
+    fps: Annotated[float, typer.Option(help="Pictures per second.")] = 10.0,
+    size: Annotated[Optional[str], typer.Option(
+        help="WIDTHxHEIGHT in pixels (even for MP4); default from the run's extent in 2D, "
+             "640x480 in 3D.")] = None,
+    plane: Annotated[Optional[str], typer.Option(
+        help="3D: an ortho view of two axes (xz: side, xy: top) instead of the perspective "
+             "view; with --renderer matplotlib the projection plane (default xz).")] = None,
+    renderer: Annotated[str, typer.Option(
+        help="auto (OVITO for 3D, matplotlib for 2D), ovito or matplotlib (3D as flat "
+             "disks).")] = "auto",
+    quality: Annotated[str, typer.Option(
+        help="OVITO: fast, or fine (ambient occlusion, about 4x slower).")] = "fast",
+    vmin: Annotated[Optional[float], typer.Option(
+        help="Colour scale start; default the lowest value over the frames shown (0 for "
+             "speeds).")] = None,
+    vmax: Annotated[Optional[float], typer.Option(
+        help="Colour scale end; default the highest value over the frames shown.")] = None,
+    cmap: Annotated[Optional[str], typer.Option(help="A matplotlib colour map.")] = None,
+    progress: ProgressOption = "auto",
+) -> None:
+    """Write a movie and a poster frame of the run in RUN, grains coloured by speed, type or
+    contact network; time and step on every frame."""
+    with _errors():
+        from grainflow.plotting.movie import write_movie
+
+        movie, picture = _view_outputs(run, output, poster)
+        write_movie(run, movie, color_by=color_by, delta=delta, every=every, frames=frames,
+                    fps=fps, size=size, poster=picture, plane=plane, renderer=renderer,
+                    quality=quality, vmin=vmin, vmax=vmax, cmap=cmap, progress=progress)
+    typer.echo(f"wrote {movie} and {picture}")
+
+
+@app.command()
 def demo(
     output: Annotated[Path, typer.Option("--output", "-o", help="Run directory.")]
     = Path("grainflow-demo"),
     threads: ThreadsOption = None,
     progress: ProgressOption = "auto",
 ) -> None:
-    """Run a small 2D hopper discharge: flow rate, snapshot.png and flow_rate.png."""
+    """Run a small 2D hopper discharge: flow rate, snapshot.png, flow_rate.png and movie.mp4."""
     with _errors():
         from grainflow.studies.hopper_demo import demo as hopper_demo
 
@@ -162,6 +210,7 @@ def study(
         "--convention", help="hopper: 'authors' (the second pass, on the authors' code "
         "conventions) or 'grainflow' (the first pass, the printed seed as we read it).")]
     = "authors",
+    progress: ProgressOption = "auto",
 ) -> None:
     """Reproduce a seed study through the sweep engine and write its report.md."""
     with _errors():
@@ -185,9 +234,33 @@ def study(
         else:
             from grainflow.studies.hopper_study import reproduce
 
+        if progress not in ("auto", "rich", "plain", "none"):
+            raise UsageError(f"--progress: {progress!r} is not valid; use auto, rich, plain "
+                             "or none")
         report = reproduce(output or Path(f"{name}_study"), reduced=not full,
-                           scheduler=scheduler)
+                           scheduler=scheduler, progress=progress)
         typer.echo(f"report: {report}")
+
+
+@app.command()
+def docs(
+    gallery: Annotated[bool, typer.Option(
+        "--gallery/--no-gallery", help="Run the gallery scripts (minutes) or only show "
+        "their code (seconds).")] = True,
+    open_browser: Annotated[bool, typer.Option(
+        "--open/--no-open", help="Open the built site in a web browser.")] = True,
+    site_dir: Annotated[Optional[Path], typer.Option(
+        "--site-dir", help="Where to build (default: site/ in the checkout).")] = None,
+) -> None:
+    """Build the documentation site from this source checkout (needs the docs extra:
+    pip install -e '.[docs]') and open it."""
+    with _errors():
+        from grainflow.docs_site import build_site, open_site
+
+        index = build_site(site_dir, gallery=gallery)
+        typer.echo(f"site: {index}")
+        if open_browser and not open_site(index):
+            typer.echo(f"no web browser here; open {index.as_uri()} in one")
 
 
 @app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
@@ -296,6 +369,32 @@ def _benchmark_main() -> Callable[[list[str]], Any]:
     if not hasattr(module, "main"):
         raise RuntimeError(f"{script} has no main(argv) function")
     return module.main
+
+
+def _view_outputs(run: Path, output: Path | None, poster: Path | None) -> tuple[Path, Path]:
+    """The movie and poster paths of ``grainflow view``: given ones as they are; defaults
+    ``RUN/movie.mp4`` and ``RUN/poster.png`` (beside the file for a trajectory file).
+
+    A default path is only replaced if grainflow wrote it (the run directory's manifest,
+    :func:`grainflow.runner.read_manifest`), and is recorded there; a file of the user's in
+    its place is refused (give ``-o`` / ``--poster``, or move it away)."""
+    from grainflow.runner import read_manifest, record_outputs
+
+    if not run.exists():
+        raise UsageError(f"{run}: no such run directory or trajectory file")
+    folder = run if run.is_dir() else run.parent
+    paths = {"movie.mp4": output, "poster.png": poster}
+    defaults = [name for name, given in paths.items() if given is None]
+    if defaults:
+        ours = read_manifest(folder)
+        for name in defaults:
+            if (folder / name).exists() and name not in ours:
+                option = "-o" if name == "movie.mp4" else "--poster"
+                raise UsageError(f"{folder / name} exists and was not written by grainflow; "
+                                 f"move it away or give {option}")
+        record_outputs(folder, defaults)
+    return (output if output is not None else folder / "movie.mp4",
+            poster if poster is not None else folder / "poster.png")
 
 
 def export_frames(rundir: Path, format: str, output: Path | None) -> tuple[Path, int]:

@@ -1,12 +1,26 @@
-"""Progress reports of long runs: a rich bar on a terminal, plain lines elsewhere.
+"""Progress reports of long tasks: a rich bar on a terminal, plain lines elsewhere.
 
-:func:`make_progress` picks the display: ``"rich"`` (bar, ETA, particle-steps/s) when the
-stream is a terminal, ``"plain"`` (one line every ``interval`` seconds, for CI logs and sweep
-workers) otherwise; ``"none"`` prints nothing. Every display has the same three calls::
+Two families, with the same four modes (``"auto"``: rich on a terminal, plain otherwise;
+``"rich"``; ``"plain"``; ``"none"``):
 
-    with make_progress("auto") as p:
-        p.start(total=10_000, done=0)
-        p.update(step=5000, n=1200, rate=2.1e6)
+* :func:`make_progress`, for a simulation run: ``"rich"`` (bar, ETA, particle-steps/s),
+  ``"plain"`` (one line every ``interval`` seconds, for CI logs and sweep workers). Every
+  display has the same three calls::
+
+      with make_progress("auto") as p:
+          p.start(total=10_000, done=0)
+          p.update(step=5000, n=1200, rate=2.1e6)
+
+* :func:`make_item_progress`, for counting items of any kind (frames rendered, runs done,
+  analysis phases), with an estimate of the time left from the mean time per item so far::
+
+      with make_item_progress("auto", total=120, label="frame") as p:
+          for frame in frames:
+              render(frame)
+              p.advance(info=f"step {frame.step}")
+
+  A plain display prints ``frame 40/120 (33.3%)  eta 0:00:12  step 4000`` at most once every
+  ``interval`` seconds, a first line when it starts and a last one with the time taken.
 """
 
 from __future__ import annotations
@@ -19,7 +33,8 @@ from rich.console import Console
 from rich.progress import (BarColumn, MofNCompleteColumn, Progress as RichBar, TextColumn,
                            TimeRemainingColumn)
 
-__all__ = ["PlainProgress", "Progress", "RichProgress", "make_progress"]
+__all__ = ["ItemProgress", "PlainItemProgress", "PlainProgress", "Progress",
+           "RichItemProgress", "RichProgress", "make_item_progress", "make_progress"]
 
 
 class Progress:
@@ -105,15 +120,140 @@ def make_progress(mode: str = "auto", stream: TextIO | None = None,
                   interval: float = 10.0) -> Progress:
     """``"auto"`` (rich on a terminal, plain otherwise), ``"rich"``, ``"plain"`` or ``"none"``."""
     stream = stream or sys.stdout
-    if mode == "auto":
-        mode = "rich" if stream.isatty() else "plain"
+    mode = _mode(mode, stream)
     if mode == "rich":
         return RichProgress(stream)
     if mode == "plain":
         return PlainProgress(stream, interval)
-    if mode == "none":
-        return Progress()
-    raise ValueError(f"progress: {mode!r} is not valid; use auto, rich, plain or none")
+    return Progress()
+
+
+# ----------------------------------------------------------------------------- item counts
+class ItemProgress:
+    """Progress over ``total`` items of one kind (``label``: its singular noun, e.g.
+    ``"frame"``, ``"run"``, ``"phase"``); shows nothing. Base class of the displays made by
+    :func:`make_item_progress`.
+
+    Call :meth:`advance` after each item (or ``k`` items) and :meth:`close` at the end, or
+    use the display as a context manager, which closes it. ``done`` is the count so far.
+    """
+
+    def __init__(self, total: int, label: str = "item") -> None:
+        if total < 0:
+            raise ValueError(f"progress: total={total!r}; expected a count >= 0")
+        self.total = int(total)
+        self.label = label
+        self.done = 0
+        self._t0 = time.perf_counter()
+
+    def advance(self, k: int = 1, info: str = "") -> None:
+        """Count ``k`` more items as done; ``info``: a short note shown with the count (the
+        item just finished, a current value)."""
+        self.done += k
+
+    def close(self) -> None:
+        """Finish the display (safe to call twice)."""
+
+    @property
+    def elapsed(self) -> float:
+        """Seconds since the display was made."""
+        return time.perf_counter() - self._t0
+
+    def eta(self) -> float:
+        """Seconds left at the mean time per item so far (inf before the first item)."""
+        if self.done <= 0:
+            return float("inf")
+        return max(self.total - self.done, 0) * self.elapsed / self.done
+
+    def __enter__(self) -> "ItemProgress":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class RichItemProgress(ItemProgress):
+    """A live bar on a terminal: label, bar, done/total, eta, the latest ``info``."""
+
+    def __init__(self, total: int, label: str = "item", stream: TextIO | None = None) -> None:
+        super().__init__(total, label)
+        self._bar = RichBar(
+            TextColumn(label), BarColumn(bar_width=20), MofNCompleteColumn(), TextColumn("eta"),
+            TimeRemainingColumn(), TextColumn("{task.fields[info]}"),
+            console=Console(file=stream or sys.stdout), transient=False)
+        self._task = self._bar.add_task(label, total=self.total, info="")
+        self._bar.start()
+        self._open = True
+
+    def advance(self, k: int = 1, info: str = "") -> None:
+        super().advance(k, info)
+        self._bar.update(self._task, completed=self.done, info=info)
+
+    def close(self) -> None:
+        if self._open:
+            self._open = False
+            self._bar.stop()
+
+
+class PlainItemProgress(ItemProgress):
+    """Plain lines for logs: one at the start, then ``label done/total (pct)  eta H:MM:SS
+    info`` at most once per ``interval`` seconds (and for the last item), and one at the end
+    with the time taken."""
+
+    def __init__(self, total: int, label: str = "item", stream: TextIO | None = None,
+                 interval: float = 10.0) -> None:
+        super().__init__(total, label)
+        self.stream = stream or sys.stdout
+        self.interval = float(interval)
+        self._last = self._t0
+        self._open = True
+        self._print(f"{label} 0/{self.total}")
+
+    def advance(self, k: int = 1, info: str = "") -> None:
+        super().advance(k, info)
+        now = time.perf_counter()
+        if now - self._last < self.interval and self.done < self.total:
+            return
+        self._last = now
+        pct = 100.0 * self.done / self.total if self.total else 100.0
+        note = f"  {info}" if info else ""
+        self._print(f"{self.label} {self.done}/{self.total} ({pct:.1f}%)  "
+                    f"eta {_clock(self.eta())}{note}")
+
+    def close(self) -> None:
+        if self._open:
+            self._open = False
+            self._print(f"{self.label} {self.done}/{self.total} done in {_clock(self.elapsed)}")
+
+    def _print(self, line: str) -> None:
+        print(line, file=self.stream, flush=True)
+
+
+def make_item_progress(mode: str = "auto", total: int = 0, label: str = "item", *,
+                       stream: TextIO | None = None, interval: float = 10.0) -> ItemProgress:
+    """A display counting ``total`` items called ``label`` (singular, e.g. ``"frame"``).
+
+    ``mode``: ``"auto"`` (``"rich"`` when ``stream`` is a terminal, else ``"plain"``),
+    ``"rich"`` (a bar with an ETA), ``"plain"`` (a line every ``interval`` seconds with the
+    count and ETA) or ``"none"``. ``stream``: where to print (default stdout).
+    """
+    stream = stream or sys.stdout
+    mode = _mode(mode, stream)
+    if mode == "rich":
+        return RichItemProgress(total, label, stream)
+    if mode == "plain":
+        return PlainItemProgress(total, label, stream, interval)
+    return ItemProgress(total, label)
+
+
+def _mode(mode: str, stream: TextIO) -> str:
+    """The display ``mode`` resolved (``"auto"`` by ``stream`` being a terminal); raises a
+    ValueError naming the valid ones."""
+    if mode not in ("auto", "rich", "plain", "none"):
+        raise ValueError(f"progress: {mode!r} is not valid; use auto, rich, plain or none")
+    if mode == "auto":
+        return "rich" if stream.isatty() else "plain"
+    return mode
 
 
 def _clock(seconds: float) -> str:

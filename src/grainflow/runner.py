@@ -46,6 +46,7 @@ from grainflow.config.build import build_simulation, total_steps
 from grainflow.config.schema import RunConfig, load_config, resolved_dict
 from grainflow.engine.simulation import InstabilityError, Simulation
 from grainflow.engine.threads import Threads, check_threads
+from grainflow.io.h5md import RUN_TRAJECTORY
 from grainflow.io.thermo import THERMO_COLUMNS, ThermoLog
 from grainflow.progress import Progress, make_progress
 
@@ -60,7 +61,7 @@ CHECKPOINT_VERSION = 2
 
 CONFIG = "config.toml"
 THERMO = "thermo.csv"
-FRAMES = "frames.h5"
+FRAMES = RUN_TRAJECTORY
 CHECKPOINT = "checkpoint.npz"
 UNSTABLE = "unstable_state.npz"
 SNAPSHOT = "final.png"

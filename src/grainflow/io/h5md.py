@@ -86,6 +86,8 @@ class NonFiniteFrameError(InstabilityError, ValueError):
 
 H5MD_VERSION = (1, 1)
 LAYOUT = "grainflow-h5md-1"
+#: The trajectory's file name in a run directory (:mod:`grainflow.runner`).
+RUN_TRAJECTORY = "frames.h5"
 # Oldest HDF5 file-format version that supports SWMR; pinning both bounds keeps files
 # readable by any HDF5 >= 1.10 even when a newer library writes them.
 _LIBVER = ("v110", "v110")

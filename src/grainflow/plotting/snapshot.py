@@ -5,25 +5,30 @@ plane, drawn far-to-near so that nearer grains cover farther ones. A 2D frame's 
 rings (:mod:`grainflow.rings`) are drawn as filled polygons through their vertices, each
 coloured by the mean of its vertices' values (optionally with the vertex disks outlined).
 Figures are rendered with matplotlib's Agg canvas directly, without pyplot, so importing this
-module leaves the user's matplotlib backend alone.
+module leaves the user's matplotlib backend alone. :func:`draw_frame` is the drawing itself,
+into a given Axes; :func:`snapshot` and the movies of :mod:`grainflow.plotting.movie` (which
+pass one colour scale and fixed bounds for all their frames) both go through it.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.axes import Axes
 from matplotlib.collections import EllipseCollection, LineCollection, PolyCollection
+from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
 from grainflow.frame import Frame
 from grainflow.rings import frame_rings, ring_outlines
 
-__all__ = ["COLOR_BY", "snapshot"]
+__all__ = ["COLOR_BY", "Drawn", "colour_values", "draw_frame", "frame_limits", "figure_size",
+           "plot_axes", "snapshot"]
 
 Segment = tuple[tuple[float, float], tuple[float, float]]
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -64,8 +69,53 @@ def snapshot(
     the ring's type), on the colour scale of the other grains; ``vertices=True`` also outlines
     the vertex particles' disks thinly.
     """
-    axes = _plot_axes(frame.dim, plane)
-    values, label = _colour_values(frame, color_by, axes)
+    lo, hi = frame_limits(frame, plane, walls)
+    fig = Figure(figsize=figure_size(hi - lo), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    drawn = draw_frame(ax, frame, color_by=color_by, walls=walls, title=title, plane=plane,
+                       cmap=cmap, vertices=vertices, limits=(lo, hi))
+    fig.colorbar(drawn.mappable, ax=ax, label=drawn.label, shrink=0.8)
+    path = Path(path)
+    fig.savefig(path, dpi=dpi)
+    return path
+
+
+@dataclass(frozen=True)
+class Drawn:
+    """What :func:`draw_frame` drew: the grains' ``mappable`` (for a colour bar) and the
+    colour-bar ``label``."""
+
+    mappable: EllipseCollection
+    label: str
+
+
+def draw_frame(
+    ax: Axes,
+    frame: Frame,
+    *,
+    color_by: str | np.ndarray = "speed",
+    walls: Sequence[Segment] | None = None,
+    title: str | None = None,
+    plane: str = "xz",
+    cmap: str | Colormap = "viridis",
+    vertices: bool = False,
+    norm: Normalize | None = None,
+    limits: tuple[np.ndarray, np.ndarray] | None = None,
+    label: str | None = None,
+) -> Drawn:
+    """Draw ``frame`` into ``ax`` (grains at true size, rings as polygons, walls, axis names,
+    title); the one drawing routine behind :func:`snapshot` and the movies of
+    :mod:`grainflow.plotting.movie`. Adds no colour bar: returns the mappable and its label.
+
+    ``color_by``, ``walls``, ``title``, ``plane``, ``cmap``, ``vertices``: as in
+    :func:`snapshot`. ``norm``: a fixed colour scale (a movie's, the same in every frame);
+    None: the range of this frame's values. ``limits``: ``(lo, hi)`` plot bounds in the
+    plotted coordinates; None: :func:`frame_limits`. ``label``: the colour-bar label (default:
+    the quantity's, or ``"value"`` for an array).
+    """
+    axes = plot_axes(frame.dim, plane)
+    values, default_label = colour_values(frame, color_by, axes)
     index = frame_rings(frame)[1] if frame.dim == 2 else np.zeros((0, 0), dtype=np.int64)
     outlines = ring_outlines(frame, index)
     order = _draw_order(frame, axes)
@@ -73,19 +123,17 @@ def snapshot(
     centres = frame.position[order][:, axes]
     diameters = 2.0 * frame.radius[order]
 
-    lo, hi = _limits(frame, axes, walls, outlines)
-    fig = Figure(figsize=_figure_size(hi - lo), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), aspect="equal")
+    lo, hi = limits if limits is not None else _limits(frame, axes, walls, outlines)
+    ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), aspect="equal")
     grains = EllipseCollection(
         diameters, diameters, np.zeros(len(order)), units="xy",
-        offsets=centres, offset_transform=ax.transData, cmap=cmap,
+        offsets=centres, offset_transform=ax.transData, cmap=cmap, norm=norm,
         edgecolors="black", linewidths=0.2,
     )
     grains.set_array(values[order])
     ax.add_collection(grains)
     if len(index):
-        _draw_rings(ax, frame, index, outlines, values, grains, vertices)
+        _draw_rings(ax, frame, index, outlines, values, grains, vertices, fixed=norm is not None)
     if walls:
         ax.add_collection(LineCollection(np.asarray(walls, dtype=float), colors="black", linewidths=1.5))
     names = "xyz"
@@ -94,14 +142,21 @@ def snapshot(
     rings = f", {len(index)} rings" if len(index) else ""
     ax.set_title(title if title is not None else
                  f"step {frame.step}, t = {frame.time:.6g}, N = {frame.n}{rings}")
-    fig.colorbar(grains, ax=ax, label=label, shrink=0.8)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    return path
+    return Drawn(grains, label if label is not None else default_label)
 
 
-def _plot_axes(dim: int, plane: str) -> list[int]:
-    """Indices of the horizontal and vertical plot axes."""
+def frame_limits(frame: Frame, plane: str = "xz", walls: Sequence[Segment] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Plot bounds ``(lo, hi)`` (each (2,)) of ``frame`` as :func:`snapshot` draws it: the
+    grains, the walls, the rings and the periodic box axes, with a 3 % margin."""
+    axes = plot_axes(frame.dim, plane)
+    index = frame_rings(frame)[1] if frame.dim == 2 else np.zeros((0, 0), dtype=np.int64)
+    return _limits(frame, axes, walls, ring_outlines(frame, index))
+
+
+def plot_axes(dim: int, plane: str) -> list[int]:
+    """Indices of the horizontal and vertical plot axes (``[0, 1]`` in 2D; ``plane``, e.g.
+    ``"xz"``, in 3D)."""
     if dim == 2:
         return [0, 1]
     if len(plane) != 2 or plane[0] == plane[1] or not set(plane) <= set(_AXES):
@@ -127,8 +182,12 @@ def _draw_order(frame: Frame, axes: list[int]) -> np.ndarray:
     return np.argsort(_depth(frame, axes), kind="stable")
 
 
-def _colour_values(frame: Frame, color_by: str | np.ndarray, axes: list[int]) -> tuple[np.ndarray, str]:
-    """Per-grain colour values and the colour-bar label."""
+def colour_values(frame: Frame, color_by: str | np.ndarray, axes: list[int] | None = None
+                  ) -> tuple[np.ndarray, str]:
+    """Per-grain colour values ((N,) floats) and the colour-bar label: ``color_by`` a name
+    from :data:`COLOR_BY` or an (N,) array. ``axes``: the plot axes (for ``"depth"``; default
+    the 2D plane or the 3D side view ``"xz"``)."""
+    axes = plot_axes(frame.dim, "xz") if axes is None else axes
     if not isinstance(color_by, str):
         values = np.asarray(color_by, dtype=float)
         if values.shape != (frame.n,):
@@ -146,15 +205,19 @@ def _colour_values(frame: Frame, color_by: str | np.ndarray, axes: list[int]) ->
 
 
 def _draw_rings(ax: Axes, frame: Frame, index: np.ndarray, outlines: np.ndarray,
-                values: np.ndarray, grains: EllipseCollection, vertices: bool) -> None:
+                values: np.ndarray, grains: EllipseCollection, vertices: bool,
+                fixed: bool = False) -> None:
     """Add the rings ``index`` as polygons ``outlines`` coloured by the mean of ``values`` over
-    their vertices, on one colour scale with ``grains``; outline the vertex disks if asked."""
+    their vertices, on one colour scale with ``grains`` (``fixed``: the grains' norm is a
+    given scale, kept; else the range of both); outline the vertex disks if asked."""
     ring_values = values[index].mean(axis=1)
-    polygons = PolyCollection(outlines, cmap=grains.get_cmap(), edgecolors="black", linewidths=0.4)
+    polygons = PolyCollection(outlines, cmap=grains.get_cmap(), norm=grains.norm,
+                              edgecolors="black", linewidths=0.4)
     polygons.set_array(ring_values)
-    both = np.concatenate([grains.get_array(), ring_values])
-    for mappable in (grains, polygons):
-        mappable.set_clim(both.min(), both.max())
+    if not fixed:
+        both = np.concatenate([grains.get_array(), ring_values])
+        for mappable in (grains, polygons):
+            mappable.set_clim(both.min(), both.max())
     ax.add_collection(polygons)
     if vertices:
         diameters = 2.0 * frame.radius[index.ravel()]
@@ -190,7 +253,8 @@ def _limits(frame: Frame, axes: list[int], walls: Sequence[Segment] | None,
     return lo - margin, hi + margin
 
 
-def _figure_size(extent: np.ndarray) -> tuple[float, float]:
-    """Inches for a plot of data ``extent`` (w, h): 6.5 in on the long side plus decorations."""
+def figure_size(extent: np.ndarray) -> tuple[float, float]:
+    """Inches (w, h) of a figure for a plot of data ``extent`` (w, h): 6.5 in on the long
+    side plus room for the axis labels, title and colour bar."""
     width, height = np.maximum(6.5 * extent / extent.max(), 2.5)
     return float(width) + 1.6, float(height) + 0.9

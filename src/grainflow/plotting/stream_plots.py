@@ -349,24 +349,21 @@ def plot_stream_side(frame: Frame, path: str | Path, delta: float, *,
 def write_stream_movie(frames: Sequence[Frame], path: str | Path, delta: float, *,
                        depth_range: tuple[float, float] = (0.0, 0.06), columns: int = 4,
                        vmax: float = 2000.0, frame_ms: int = 120) -> Path:
-    """An animated GIF of :func:`plot_stream_side` over ``frames`` (``frame_ms`` per
-    picture), through Pillow (matplotlib's own dependency); returns the path."""
-    from PIL import Image
+    """A movie of :func:`plot_stream_side` over ``frames`` (``frame_ms`` per picture): an
+    animated GIF for a ``.gif`` path, H.264 for ``.mp4``, through the project's one movie
+    writer (:func:`grainflow.plotting.movie.open_movie`); returns the path."""
+    from grainflow.plotting.movie import open_movie
 
     frames = list(frames)
     if not frames:
         raise ValueError("frames: nothing to animate")
-    pictures = []
-    for frame in frames:
-        fig = _stream_figure(columns, depth_range)
-        _draw_stream(fig, frame, delta, depth_range, columns, vmax)
-        fig.canvas.draw()
-        rgba = np.asarray(fig.canvas.buffer_rgba())
-        pictures.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=frame_ms, loop=0)
-    return out
+    with open_movie(path, fps=1000.0 / frame_ms) as movie:
+        for frame in frames:
+            fig = _stream_figure(columns, depth_range)
+            _draw_stream(fig, frame, delta, depth_range, columns, vmax)
+            fig.canvas.draw()
+            movie.append(np.asarray(fig.canvas.buffer_rgba())[..., :3])
+    return movie.path
 
 
 def plot_contact_vs_capture(capture_velocity: ArrayLike, mean_contact_number: ArrayLike,

@@ -397,16 +397,18 @@ def _rates_table(results: dict) -> list[str]:
 
 
 def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
-                      scheduler: str | None = None, n_workers: int | None = None) -> Path:
+                      scheduler: str | None = None, n_workers: int | None = None,
+                      progress: str = "auto") -> Path:
     """Run (or continue) the second-pass study into ``out_dir``; write ``out_dir/report.md``."""
-    from grainflow.sweep import run_sweep
+    from grainflow.studies.points import run_sweeps
 
     plan = AUTHORS_REDUCED if reduced else AUTHORS_FULL
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     results = {}
-    for name, spec in sweep_specs(plan).items():
-        run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress="plain")
+    specs = sweep_specs(plan)
+    run_sweeps(specs, out, scheduler=scheduler, n_workers=n_workers, progress=progress)
+    for name in specs:
         results[name] = collect(out / name, 0.0 if name in PROBES else None)
     dims = {"q2d": 2, "q3d": 3, "theta2d": 2, **{hard_name(E): 2 for E in plan.hard_E_sp},
             **{p: probe_dim(p) for p in plan.probes}}

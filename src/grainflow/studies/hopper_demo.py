@@ -30,7 +30,8 @@ __all__ = ["demo"]
 
 def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: float = 10.0,
          duration: float = 600.0, E_sp: float = 1000.0, E_w: float = 1000.0, seed: int = 0,
-         quiet: bool = False, threads: "Threads" = "auto", progress: str = "auto") -> "FlowRate":
+         quiet: bool = False, threads: "Threads" = "auto", progress: str = "auto",
+         movie_frames: int = 100) -> "FlowRate":
     """A 2D hopper discharge in the lambda -> inf limit; about a minute on 2 cores.
 
     ``n`` grains, a wide orifice (w = 10 sigma_avg), ``duration`` t0 of flow (the drag-limited
@@ -38,8 +39,10 @@ def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: flo
     analysis detects and discards), E_sp = E_w = 1000 (moderately stiff grains; walls no
     stiffer than the grains, so that the wall contact time does not shorten dt, see
     :meth:`~grainflow.engine.simulation.Simulation.stable_time_step`). Prints Q with its error bar in
-    Q0 = sigma_avg^2/t0, writes ``snapshot.png``, ``flow_rate.png`` and ``events.csv`` into
-    ``out_dir`` (default ``./grainflow-demo``) and returns the
+    Q0 = sigma_avg^2/t0, writes ``snapshot.png``, ``flow_rate.png``, ``events.csv`` and
+    ``movie.mp4`` (``movie_frames`` pictures spread over the run, grains coloured by speed,
+    :func:`~grainflow.plotting.movie.write_movie`; 0: no movie) into ``out_dir`` (default
+    ``./grainflow-demo``) and returns the
     :class:`~grainflow.analysis.hopper.FlowRate`. ``threads``: see
     :mod:`grainflow.engine.threads`; ``progress``: a bar with the time left on a terminal,
     a line every 10 s otherwise (:func:`~grainflow.progress.make_progress`; ``quiet``:
@@ -49,6 +52,7 @@ def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: flo
 
     from grainflow.analysis.hopper import flow_rate_from_events
     from grainflow.plotting.hopper_plots import plot_flow_rate_timeseries
+    from grainflow.plotting.movie import write_movie
     from grainflow.plotting.snapshot import snapshot
 
     out = Path(out_dir if out_dir is not None else "grainflow-demo")
@@ -71,6 +75,9 @@ def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: flo
         return (s.particle_steps - particle_steps) / max(time.perf_counter() - t_run, 1e-9)
 
     sim.add_observer(lambda s: display.update(s.step, s.state.n, rate(s)), 100, checked=False)
+    frames = []
+    if movie_frames > 0:
+        sim.add_observer(lambda s: frames.append(s.frame()), max(1, steps // movie_frames))
     with display:
         display.start(steps)
         sim.run(steps)
@@ -81,7 +88,11 @@ def demo(out_dir: str | Path | None = None, *, n: int = 1600, orifice_width: flo
     flow = flow_rate_from_events(updater.event_times, updater.event_sizes, t_begin=0.0,
                                  t_end=sim.time)
     plot_flow_rate_timeseries(flow, out / "flow_rate.png")
-    snapshot(sim.frame(), out / "snapshot.png", walls=hopper_segments(sim))
+    walls = hopper_segments(sim)
+    snapshot(sim.frame(), out / "snapshot.png", walls=walls)
+    if frames:
+        write_movie(frames, out / "movie.mp4", walls=walls, fps=15.0,
+                    progress="none" if quiet else progress)
     if not quiet:
         print(f"Q = {flow.flow_rate:.4g} +/- {flow.flow_rate_err:.2g} Q0 "
               f"(dN/dt = {flow.number_rate:.4g} +/- {flow.number_rate_err:.2g} per t0, "

@@ -239,16 +239,17 @@ def _failed_table(out: Path, plan: DPPlan) -> list[str]:
 
 
 def reproduce_dp(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
-                 n_workers: int | None = None) -> Path:
+                 n_workers: int | None = None, progress: str = "auto") -> Path:
     """Run (or continue) the DP study into ``out_dir``; write ``out_dir/report.md``."""
-    from grainflow.sweep import run_sweep
+    from grainflow.studies.points import run_sweeps
 
     plan = DP_REDUCED if reduced else DP_FULL
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     results: dict[str, dict[tuple, Series]] = {}
-    for name, spec in sweep_specs(plan).items():
-        run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress="plain")
+    specs = sweep_specs(plan)
+    run_sweeps(specs, out, scheduler=scheduler, n_workers=n_workers, progress=progress)
+    for name in specs:
         results[name] = collect_series(out / name, ("hopper.lam",))
     fits = {name: {key[0]: three_fits(s, 2, key[0]) for key, s in sorted(series.items())}
             for name, series in results.items()}

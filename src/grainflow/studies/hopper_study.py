@@ -129,7 +129,7 @@ def _profiles(series: Series, dim: int) -> tuple[list[Any], list[float]]:
 
 
 def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
-              n_workers: int | None = None) -> Path:
+              n_workers: int | None = None, progress: str = "auto") -> Path:
     """Run (or continue) the hopper study into ``out_dir`` and write ``out_dir/report.md``."""
     from grainflow.analysis.hopper import fit_beta_sigmoid
     from grainflow.plotting.hopper_plots import (
@@ -137,14 +137,15 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         plot_beverloo,
         plot_velocity_profiles,
     )
-    from grainflow.sweep import run_sweep
+    from grainflow.studies.points import run_sweeps
 
     plan = REDUCED if reduced else FULL
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     results: dict[str, dict[float, Series]] = {}
-    for name, spec in sweep_specs(plan).items():
-        run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress="plain")
+    specs = sweep_specs(plan)
+    run_sweeps(specs, out, scheduler=scheduler, n_workers=n_workers, progress=progress)
+    for name in specs:
         results[name] = _collect(out / name)
 
     fits = {name: _fits(series) for name, series in results.items()}

@@ -293,7 +293,7 @@ class _Table:
 
 
 def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
-              n_workers: int | None = None) -> Path:
+              n_workers: int | None = None, progress: str = "auto") -> Path:
     """Run (or continue) the jet study into ``out_dir`` and write ``out_dir/report.md``."""
     from grainflow.analysis.jet import eccentricity, fit_psi0
     from grainflow.analysis.jet_rheology import (
@@ -314,7 +314,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
 
     plan = REDUCED if reduced else FULL
     out = Path(out_dir)
-    points = run_sweeps(sweep_specs(plan), out, scheduler=scheduler, n_workers=n_workers)
+    points = run_sweeps(sweep_specs(plan), out, scheduler=scheduler, n_workers=n_workers,
+                        progress=progress)
 
     lines = [f"# Granular jets (seed 002) — {'reduced' if reduced else 'full'} version", ""]
     if plan.reductions:

@@ -36,14 +36,20 @@ def done_points(sweepdir: Path) -> SweepPoints:
 
 
 def run_sweeps(specs: dict[str, Any], out: Path, *, scheduler: str | None = None,
-               n_workers: int | None = None) -> dict[str, SweepPoints]:
+               n_workers: int | None = None, progress: str = "auto") -> dict[str, SweepPoints]:
     """Run (or continue) each sweep into ``out/NAME`` and return its done points by name;
-    finished points are never recomputed (:func:`grainflow.sweep.run_sweep`)."""
+    finished points are never recomputed (:func:`grainflow.sweep.run_sweep`).
+
+    ``progress`` is each sweep's display (``"auto"``: a bar with the time left on a terminal,
+    a plain line every 30 s otherwise; ``"rich"``, ``"plain"``, ``"none"``); a line before
+    each sweep says which of the study's sweeps it is."""
     from grainflow.sweep import run_sweep
 
     out.mkdir(parents=True, exist_ok=True)
     points: dict[str, SweepPoints] = {}
-    for name, spec in specs.items():
-        run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress="plain")
+    for k, (name, spec) in enumerate(specs.items(), start=1):
+        if progress != "none":
+            print(f"study: sweep {k}/{len(specs)} '{name}' into {out / name}", flush=True)
+        run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress=progress)
         points[name] = done_points(out / name)
     return points

@@ -317,7 +317,7 @@ def _verdict(name: str, value: float | None, err: float | None) -> tuple[str, st
 
 
 def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
-              n_workers: int | None = None) -> Path:
+              n_workers: int | None = None, progress: str = "auto") -> Path:
     """Run (or continue) the stream study into ``out_dir`` and write ``out_dir/report.md``."""
     from grainflow.analysis.stream import (aspect_ratio_histogram, droplet_separations,
                                            find_droplets, normalised_contact_number,
@@ -334,7 +334,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
 
     plan = REDUCED if reduced else FULL
     out = Path(out_dir)
-    points = run_sweeps(sweep_specs(plan), out, scheduler=scheduler, n_workers=n_workers)
+    points = run_sweeps(sweep_specs(plan), out, scheduler=scheduler, n_workers=n_workers,
+                        progress=progress)
     ph = points["phase"]
     lines = [f"# Cohesive granular streams (seed 000) — {'reduced' if reduced else 'full'} "
              "version", ""]

@@ -98,7 +98,7 @@ def sweep_command(
         typer.Option("--workers", "-n", min=1, help="Local cluster size (default: one worker per core)."),
     ] = None,
     progress: Annotated[
-        str, typer.Option(help="Progress display: auto, rich or plain.")
+        str, typer.Option(help="Progress display: auto, rich, plain or none.")
     ] = "auto",
     progress_interval: Annotated[
         float, typer.Option(min=0.0, help="Seconds between plain progress lines.")

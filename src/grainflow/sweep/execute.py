@@ -74,7 +74,7 @@ POINT_FILE = "sweep_point.json"  # written into a run directory once its runner 
 LOCK_FILE = ".sweep.lock"
 SWEEP_RECORD = "sweep.toml"
 _POLL_SECONDS = 0.2
-PROGRESS_MODES = ("auto", "rich", "plain")
+PROGRESS_MODES = ("auto", "rich", "plain", "none")
 
 
 # ---------------------------------------------------------------------------------------
@@ -342,7 +342,8 @@ def run_sweep(
     scheduler : address of an existing dask scheduler; ``None`` starts a LocalCluster.
     n_workers : LocalCluster size (default: one worker per core); ignored with ``scheduler``.
     progress : ``"rich"`` (progress bar), ``"plain"`` (a status line every
-        ``progress_interval`` seconds) or ``"auto"`` (rich on a terminal).
+        ``progress_interval`` seconds), ``"auto"`` (rich on a terminal, plain otherwise) or
+        ``"none"`` (no status lines; messages about failed points still print).
     rebuild_catalog : if the catalog is damaged, move it aside and start a new one; the
         points whose runs finished are not run again (only their analyses).
 
@@ -694,6 +695,16 @@ class _PlainReporter(_Reporter):
         self.console.out(self.status_line(counts))
 
 
+class _QuietReporter(_Reporter):
+    """No progress lines (``progress="none"``); messages about points still print."""
+
+    def update(self, counts: dict[str, int]) -> None:
+        pass
+
+    def stop(self, counts: dict[str, int]) -> None:
+        pass
+
+
 class _RichReporter(_Reporter):
     """A live progress bar (for terminals)."""
 
@@ -730,6 +741,8 @@ class _RichReporter(_Reporter):
 
 
 def _make_reporter(mode: str, console: Console, total: int, interval: float) -> _Reporter:
+    if mode == "none":
+        return _QuietReporter(console, total)
     if mode == "rich" or (mode == "auto" and console.is_terminal):
         return _RichReporter(console, total)
     return _PlainReporter(console, total, interval)
