@@ -180,6 +180,8 @@ def _to_si(dimension: str | None) -> BeforeValidator:
             return parse_quantity(value, dimension, field="\0")
         except ValueError as err:
             raise ValueError(str(err).removeprefix("\0: ")) from None
+    # the dimension, read by grainflow.config.reference for the field's SI unit
+    convert.dimension = dimension  # type: ignore[attr-defined]
     return BeforeValidator(convert)
 
 

@@ -90,13 +90,20 @@ _ParamsBase = create_model("_ParamsBase", __base__=_LawEntry, **_PARAM_FIELDS)
 class ContactPair(_ParamsBase):  # type: ignore[misc, valid-type]
     """One type pair's override of ``[contact]``."""
 
-    types: list[Annotated[StrictInt, Field(ge=0)]] = Field(min_length=2, max_length=2)
+    types: list[Annotated[StrictInt, Field(ge=0)]] = Field(
+        min_length=2, max_length=2,
+        description="the two particle types [a, b] (0-based) whose contacts this entry sets; "
+                    "[a, a] for contacts within one type; each unordered pair at most once")
 
 
 class Contact(_ParamsBase):  # type: ignore[misc, valid-type]
     """``[contact]``: the law of every type pair, with per-pair overrides."""
 
-    pairs: list[ContactPair] = []
+    pairs: list[ContactPair] = Field(
+        default_factory=list,
+        description="[[contact.pairs]] entries: per type pair, its own parameters (with "
+                    "the same law, the other parameter groups are inherited from [contact]) "
+                    "or another law or model (then nothing is inherited)")
     _entries: dict[tuple[int, int], tuple[dict[str, str], dict[str, Any]]] = PrivateAttr(
         default_factory=dict)
 

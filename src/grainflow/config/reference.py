@@ -282,13 +282,8 @@ def _dimension(meta: list[Any]) -> str | None:
     """The dimension of a :func:`grainflow.units.quantity` field ("" for a bare number),
     or None if the field is not a quantity."""
     for m in meta:
-        if isinstance(m, BeforeValidator) and m.func.__name__ == "convert":
-            fn = m.func
-            if hasattr(fn, "dimension"):
-                return fn.dimension or ""
-            free = dict(zip(fn.__code__.co_freevars, fn.__closure__ or ()))
-            if "dimension" in free:
-                return free["dimension"].cell_contents or ""
+        if isinstance(m, BeforeValidator) and hasattr(m.func, "dimension"):
+            return m.func.dimension or ""
     return None
 
 

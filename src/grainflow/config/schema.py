@@ -95,7 +95,9 @@ class RunSection(_Model):
         None, description="time step; default dt_fraction * contact time")
     dt_fraction: float = Field(0.02, gt=0, le=0.25,
                                description="dt = dt_fraction * t_c when dt is not given")
-    integrator: Literal["verlet", "adams_bashforth2"] = "verlet"
+    integrator: Literal["verlet", "adams_bashforth2"] = Field(
+        "verlet", description="'verlet': velocity Verlet (LAMMPS nve/sphere); "
+        "'adams_bashforth2': AB2 velocities with trapezoidal positions (seed 002)")
     seed: Count = Field(0, description="seed of the run's random-number generator")
     skin: quantity("length", gt=0) | None = Field(None, description="Verlet skin; 0.2 r_mean")
     sort_every: Steps = Field(10, description="re-sort particles every N list builds")
@@ -133,7 +135,9 @@ class OutputSection(_Model):
     frames_from: quantity("time", ge=0) = Field(
         0.0, description="no frames before this simulated time (a transient not kept)")
     contacts: StrictBool = Field(False, description="store each frame's contact list")
-    compression: Literal["gzip", "lzf", "none"] = "gzip"
+    compression: Literal["gzip", "lzf", "none"] = Field(
+        "gzip", description="compression of frames.h5: 'gzip' (level 4, readable by every "
+        "HDF5 build), 'lzf' (faster, readable by h5py only) or 'none' (fastest to write)")
     checkpoint_every: Count = Field(10000, description="checkpoint every N steps; 0: only at "
                                   "the end and on SIGINT/SIGTERM")
     snapshot: StrictBool = Field(True, description="write final.png")
@@ -145,9 +149,12 @@ class OutputSection(_Model):
 class BoxSection(_Model):
     """The simulation box; bounds on non-periodic axes are informational."""
 
-    lo: vector("length")
-    hi: vector("length")
-    periodic: Annotated[list[StrictBool], AfterValidator(_one_per_axis)] | None = None
+    lo: vector("length") = Field(description="lower corner, one coordinate per axis")
+    hi: vector("length") = Field(
+        description="upper corner, above lo on every axis; on non-periodic axes particles "
+        "start inside the box and may leave it later (walls hold them)")
+    periodic: Annotated[list[StrictBool], AfterValidator(_one_per_axis)] | None = Field(
+        None, description="whether each axis is periodic (period hi - lo); default: none")
 
     @field_validator("hi")
     @classmethod
@@ -172,9 +179,10 @@ def free_vector(dimension: str | None) -> Any:
 class BoxRegion(_Model):
     """An axis-aligned block ``lo <= x <= hi``."""
 
-    shape: Literal["box"] = "box"
-    lo: vector("length")
-    hi: vector("length")
+    shape: Literal["box"] = Field(
+        "box", description="'box' (the default when shape is left out): an axis-aligned block")
+    lo: vector("length") = Field(description="lower corner, one coordinate per axis")
+    hi: vector("length") = Field(description="upper corner, above lo on every axis")
 
     @field_validator("hi")
     @classmethod
@@ -185,29 +193,35 @@ class BoxRegion(_Model):
 class CylinderRegion(_Model):
     """A 3D cylinder along coordinate ``axis`` (0, 1, 2) between ``lo`` and ``hi``."""
 
-    shape: Literal["cylinder"]
+    shape: Literal["cylinder"] = Field(
+        description="'cylinder': a 3D cylinder along a coordinate axis")
     center: Annotated[list[Length], Field(min_length=2, max_length=2)] = Field(
         description="position in the two coordinates off the axis")
-    radius: PositiveLength
-    lo: Length
-    hi: Length
-    axis: Literal[0, 1, 2] = 2
+    radius: PositiveLength = Field(description="radius of the cylinder")
+    lo: Length = Field(description="lower end: a coordinate along axis")
+    hi: Length = Field(description="upper end: a coordinate along axis, above lo")
+    axis: Literal[0, 1, 2] = Field(
+        2, description="the coordinate the cylinder runs along: 0, 1 or 2 for x, y or z")
 
 
 class DiskRegion(_Model):
     """A 2D disk."""
 
-    shape: Literal["disk"]
-    center: Annotated[list[Length], Field(min_length=2, max_length=2)]
-    radius: PositiveLength
+    shape: Literal["disk"] = Field(description="'disk': a 2D disk")
+    center: Annotated[list[Length], Field(min_length=2, max_length=2)] = Field(
+        description="centre (x, y)")
+    radius: PositiveLength = Field(description="radius of the disk")
 
 
 class HalfSpaceRegion(_Model):
     """The half-space ``(x - point) . normal >= 0`` (e.g. everything above a plane)."""
 
-    shape: Literal["halfspace"]
-    point: vector("length")
-    normal: vector(None)
+    shape: Literal["halfspace"] = Field(
+        description="'halfspace': the side of a plane (a line in 2D) that normal points to; "
+        "unbounded, so not a fill or insertion region (e.g. for [[delete]])")
+    point: vector("length") = Field(description="a point of the bounding plane (line in 2D)")
+    normal: vector(None) = Field(
+        description="direction pointing into the half-space, not all 0 (any length)")
 
 
 def _region_tag(value: Any) -> str:
@@ -259,9 +273,13 @@ class SizedPopulation(_Population):
 class ListFill(SizedPopulation):
     """Particles at explicit positions."""
 
-    fill: Literal["list"]
-    positions: list[vector("length")] = Field(min_length=1)
-    velocities: list[vector("velocity")] | None = None
+    fill: Literal["list"] = Field(description="'list': particles at explicit positions")
+    positions: list[vector("length")] = Field(
+        min_length=1, description="centre of each particle (one entry per particle), inside "
+        "the box on non-periodic axes")
+    velocities: list[vector("velocity")] | None = Field(
+        None, description="initial velocity of each particle, one per position; overrides "
+        "velocity")
 
     @field_validator("velocities")
     @classmethod
@@ -276,7 +294,8 @@ class ListFill(SizedPopulation):
 class LatticeFill(SizedPopulation):
     """Particles on a lattice filling a region, optionally thinned at random."""
 
-    fill: Literal["lattice"]
+    fill: Literal["lattice"] = Field(
+        description="'lattice': particles on the sites of a lattice in region")
     region: Region | None = Field(None, description="default: the box")
     lattice: Literal["square", "triangular", "simple_cubic", "fcc"] | None = Field(
         None, description="default: triangular in 2D, fcc in 3D")
@@ -300,7 +319,8 @@ class RandomFill(SizedPopulation):
     """Non-overlapping particles at random positions in a region (none overlaps the
     particles of earlier populations)."""
 
-    fill: Literal["random"]
+    fill: Literal["random"] = Field(
+        description="'random': particles at random, non-overlapping positions in region")
     region: Region | None = Field(None, description="default: the box")
     count: Steps = Field(description="number of particles")
     max_attempts: Steps = Field(10_000, description="placement trials per particle")
@@ -309,8 +329,11 @@ class RandomFill(SizedPopulation):
 class DataFile(_Population):
     """Particles from a LAMMPS ``atom_style sphere`` data file."""
 
-    fill: Literal["lammps_data"]
-    file: FilePath
+    fill: Literal["lammps_data"] = Field(
+        description="'lammps_data': the atoms of a LAMMPS data file")
+    file: FilePath = Field(
+        description="LAMMPS atom_style sphere data file, plain or gzip-compressed; ids, "
+        "types, diameters, densities, positions, images, velocities and spins are taken from it")
     frozen_types: list[Annotated[StrictInt, Field(ge=1)]] = Field(
         [], description="LAMMPS types (1-based) to freeze, e.g. the chute's rough base")
     type: TypeId = Field(0, description="added to the file's (LAMMPS type - 1)")
@@ -325,29 +348,39 @@ class _Inserting(_Model):
 
     every: Steps = Field(description="steps between calls")
     radius: Annotated[list[PositiveLength], BeforeValidator(_listify),
-                      Field(min_length=1, max_length=2)]
-    density: quantity("density", gt=0) = 1.0
-    velocity: vector("velocity") | None = None
-    type: TypeId = 0
+                      Field(min_length=1, max_length=2)] = Field(
+        description="radius of the inserted grains; two radii: inserted in equal numbers")
+    density: quantity("density", gt=0) = Field(
+        1.0, description="mass density of the inserted grains (2D: mass per unit area)")
+    velocity: vector("velocity") | None = Field(
+        None, description="initial velocity of the inserted grains; default at rest")
+    type: TypeId = Field(0, description="particle type of the inserted grains (selects the "
+                         "contact parameters)")
     max_attempts: Steps = Field(200, description="placement trials per grain and call")
 
 
 class PourUpdater(_Inserting):
     """Rain ``per_insertion`` grains into ``region`` every ``every`` steps."""
 
-    kind: Literal["pour"]
-    region: Region
-    per_insertion: Steps
+    kind: Literal["pour"] = Field(
+        description="'pour': add per_insertion grains in region at every call")
+    region: Region = Field(description="where the grains are inserted, at random without "
+                           "overlap; bounded, inside the box on non-periodic axes")
+    per_insertion: Steps = Field(description="grains added per call; those that do not fit "
+                                 "are tried again at the next call")
     total: Count | None = Field(None, description="stop after this many grains")
 
 
 class ReplenishUpdater(_Inserting):
     """Keep ``target`` grains in ``count_region`` by adding missing ones in ``region``."""
 
-    kind: Literal["replenish"]
+    kind: Literal["replenish"] = Field(
+        description="'replenish': keep target grains in count_region, adding the missing "
+        "ones in region")
     region: Region = Field(description="where the missing grains are inserted")
-    count_region: Region
-    target: Count
+    count_region: Region = Field(description="where the grains are counted (by centre)")
+    target: Count = Field(description="grains (of types) to keep in count_region; each call "
+                          "inserts the missing ones")
     types: list[TypeId] | None = Field(None, description="count only these types")
 
 
@@ -367,9 +400,11 @@ class TetherSection(_Model):
 class DeleteUpdater(_Model):
     """Remove grains outside (``outside = true``) or inside ``region`` every ``every`` steps."""
 
-    every: Steps
-    region: Region
-    outside: StrictBool = True
+    every: Steps = Field(description="steps between calls")
+    region: Region = Field(description="the region the grain centres are tested against")
+    outside: StrictBool = Field(
+        True, description="true: remove the grains outside region; false: those inside it "
+        "(a sink); frozen grains are never removed")
     types: list[TypeId] | None = Field(None, description="only these types")
 
 
@@ -382,7 +417,7 @@ class _Wall(_Model):
 class PlaneWall(_Wall):
     """Infinite plane; particles on the side ``normal`` points to."""
 
-    shape: Literal["plane"]
+    shape: Literal["plane"] = Field(description="'plane': an infinite plane acting on one side")
     point: free_vector("length") = Field(description="a point of the plane")
     normal: free_vector(None) = Field(description="towards the grains")
 
@@ -390,7 +425,9 @@ class PlaneWall(_Wall):
 class SegmentWall(_Wall):
     """Finite segment ``p0``-``p1`` (2D)."""
 
-    shape: Literal["segment"]
+    shape: Literal["segment"] = Field(
+        description="'segment': a finite segment (2D walls; a thin rod in 3D) acting from "
+        "both sides")
     p0: free_vector("length") = Field(description="one end")
     p1: free_vector("length") = Field(description="the other end")
 
@@ -424,11 +461,14 @@ class CylinderWall(_Wall):
     """Cylinder, infinite or over ``axial_range``; ``inside`` holds grains inside (a tube),
     else outside (a post); ``lid_lo``/``lid_hi`` close finite ends."""
 
-    shape: Literal["cylinder"]
+    shape: Literal["cylinder"] = Field(description="'cylinder': a circular tube or post")
     axis_point: free_vector("length") = Field(description="a point of the axis (s = 0)")
-    axis_direction: free_vector(None) = [0.0, 0.0, 1.0]
-    radius: PositiveLength
-    inside: StrictBool = True
+    axis_direction: free_vector(None) = Field(
+        [0.0, 0.0, 1.0], description="direction of the axis, in which s grows (normalised; "
+        "not all 0)")
+    radius: PositiveLength = Field(description="radius of the cylinder")
+    inside: StrictBool = Field(
+        True, description="true: grains inside (a tube); false: grains outside (a post)")
     axial_range: range_along_axis() = Field(
         [-math.inf, math.inf], description="[s_min, s_max] from axis_point along the axis")
     lid_lo: StrictBool = Field(False, description="close the end s_min with a flat disk")
@@ -445,11 +485,16 @@ class ConeWall(_Wall):
     APEX_FORM: ClassVar[tuple[str, ...]] = ("apex", "half_angle_deg", "axial_range")
     LAMMPS_FORM: ClassVar[tuple[str, ...]] = ("center", "radius_lo", "radius_hi", "lo", "hi")
 
-    shape: Literal["cone"]
+    shape: Literal["cone"] = Field(
+        description="'cone': a conical hopper or funnel, in the apex form or LAMMPS's form")
     axis: Literal["x", "y", "z"] | free_vector(None) = Field(
         description="apex form: the axis vector, towards the wide end; LAMMPS form: x, y or z")
-    apex: free_vector("length") | None = None
-    half_angle_deg: float | None = Field(None, gt=0, lt=90)
+    apex: free_vector("length") | None = Field(
+        None, description="apex form: the cone's tip, where s = 0 (need not be part of the "
+        "surface)")
+    half_angle_deg: float | None = Field(
+        None, gt=0, lt=90, description="apex form: angle between the axis and the surface, "
+        "in degrees")
     axial_range: range_along_axis(ge=0) | None = Field(
         None, description="[s_min, s_max] from the apex; default [0, inf]")
     center: Annotated[list[Length], Field(min_length=2, max_length=2)] | None = Field(
@@ -458,7 +503,8 @@ class ConeWall(_Wall):
     radius_hi: quantity("length", ge=0) | None = Field(None, description="radius at hi")
     lo: Length | None = Field(None, description="lower end along the axis")
     hi: Length | None = Field(None, description="upper end along the axis")
-    inside: StrictBool = True
+    inside: StrictBool = Field(
+        True, description="true: grains inside the cone (a hopper); false: outside it")
     lid_lo: StrictBool = Field(False, description="close the lower end with a flat disk")
     lid_hi: StrictBool = Field(False, description="close the upper end with a flat disk")
 
@@ -501,22 +547,29 @@ class ConeWall(_Wall):
 class PlateWithHoleWall(_Wall):
     """Infinite plate with a circular orifice centred on ``point``."""
 
-    shape: Literal["plate_with_hole"]
+    shape: Literal["plate_with_hole"] = Field(
+        description="'plate_with_hole': an infinite plate with a circular orifice")
     point: free_vector("length") = Field(description="the centre of the hole")
     normal: free_vector(None) = Field(description="towards the grains")
-    hole_radius: PositiveLength
+    hole_radius: PositiveLength = Field(description="radius of the orifice")
 
 
 class Hopper2DWall(_Wall):
     """Seed 003's 2D hopper: side walls ``W`` apart, bottom at ``theta_w``, orifice ``w``."""
 
-    shape: Literal["hopper2d"]
-    W: PositiveLength
+    shape: Literal["hopper2d"] = Field(
+        description="'hopper2d': seed 003's 2D hopper (four segments; upright for gravity "
+        "along -y)")
+    W: PositiveLength = Field(description="distance between the two vertical side walls")
     theta_w_deg: float = Field(90.0, gt=0, le=90, description="90 = flat bottom")
-    orifice_w: PositiveLength
-    y_bottom: Length = 0.0
-    height: PositiveLength
-    x_center: Length = 0.0
+    orifice_w: PositiveLength = Field(
+        description="width of the centred orifice between the bottom walls; less than W")
+    y_bottom: Length = Field(0.0, description="height (y) of the orifice")
+    height: PositiveLength = Field(
+        description="height of the side walls' tops above y_bottom; more than the rise "
+        "(W - orifice_w) / (2 tan theta_w) of the bottom walls")
+    x_center: Length = Field(0.0, description="x of the hopper's axis, midway between the "
+                             "side walls")
 
 
 Wall = Annotated[Union[PlaneWall, SegmentWall, CylinderWall, ConeWall, PlateWithHoleWall,
@@ -552,18 +605,38 @@ DRAG_BOTH = ("drag and drag_rate: both given; give one: drag = zeta (per grain, 
 class RunConfig(_Model):
     """A whole run: ``scenario`` picks the builder; see ``docs/config.md``."""
 
-    scenario: str = "generic"
-    dim: Literal[2, 3] = 3
-    run: RunSection
-    output: OutputSection = OutputSection()
-    box: BoxSection | None = None
-    particles: list[Population] = []
-    contact: Contact | None = None
-    walls: list[Wall] = []
-    tethers: list[TetherSection] = []
-    insert: list[Insert] = []
-    delete: list[DeleteUpdater] = []
-    gravity: vector("acceleration") | None = None
+    scenario: str = Field(
+        "generic", description="the builder: 'generic' (from [box], [[particles]], [contact], "
+        "[[walls]] and the other generic tables) or a ready-made study with its own table "
+        "('chute', 'hopper2d', 'hopper3d', 'stream', 'jet2d', 'jet3d'); a table the "
+        "scenario does not read is refused")
+    dim: Literal[2, 3] = Field(
+        3, description="2: disks moving in the xy plane; 3: spheres; the number of "
+        "components of every per-axis vector")
+    run: RunSection = Field(
+        description="[run]: how long (steps or duration) and how the system is integrated")
+    output: OutputSection = Field(
+        OutputSection(), description="[output]: what is written into the run directory, "
+        "and how often")
+    box: BoxSection | None = Field(
+        None, description="[box]: the simulation box; required by the generic scenario")
+    particles: list[Population] = Field(
+        [], description="[[particles]]: the particle populations at step 0, added in order")
+    contact: Contact | None = Field(
+        None, description="[contact]: the contact law of every type pair; none: particles do "
+        "not touch, walls are refused and run.dt must be given")
+    walls: list[Wall] = Field(
+        [], description="[[walls]]: analytic walls, one table per wall (needs [contact])")
+    tethers: list[TetherSection] = Field(
+        [], description="[[tethers]]: tie every particle of a type to its initial position "
+        "(a tethered particle wall)")
+    insert: list[Insert] = Field(
+        [], description="[[insert]]: updaters that add grains during the run")
+    delete: list[DeleteUpdater] = Field(
+        [], description="[[delete]]: updaters that remove grains during the run")
+    gravity: vector("acceleration") | None = Field(
+        None, description="uniform gravitational acceleration g, one component per axis "
+        "(F = m g); default: no gravity")
     drag: Annotated[list[quantity("damping", ge=0)], BeforeValidator(_listify)] | None = Field(
         None, description="drag coefficient zeta (F = -zeta v), one value or one per type")
     drag_rate: Annotated[list[quantity("frequency", ge=0)], BeforeValidator(_listify)] | None = (
