@@ -159,6 +159,19 @@ BAD_INPUTS = [
     ('walls = [{shape = "plane", point = [0, 0, 0]}]', "walls[0].normal"),
     ('walls = [{shape = "cone", apex = [0, 0, 0], axis = [0, 0, 1], half_angle_deg = 95}]',
      "walls[0].half_angle_deg"),
+    # directions are unitless and not all zero; a cylinder's hi is above its lo; an
+    # insertion region is bounded (each was accepted, or failed later without a field name)
+    ('walls = [{shape = "plane", point = [0, 0, 0], normal = [0, 0, "1 mm"]}]',
+     "walls[0].normal[2]"),
+    ('walls = [{shape = "plane", point = [0, 0, 0], normal = [0, 0, 0]}]', "walls[0].normal"),
+    ('walls = [{shape = "cone", apex = [0, 0, 0], axis = [0, 0, 0], half_angle_deg = 30}]',
+     "walls[0].axis"),
+    ('particles = [{fill = "random", radius = 0.5, count = 2, region = {shape = "cylinder", '
+     'center = [5, 5], radius = 2, lo = 8, hi = 2}}]', "particles[0].region.hi"),
+    ('insert = [{kind = "pour", every = 10, radius = 0.5, per_insertion = 5, region = '
+     '{shape = "halfspace", point = [0, 0, 5], normal = [0, 0, 1]}}]', "insert[0].region"),
+    ('delete = [{every = 10, region = {shape = "halfspace", point = [0, 0, 5], '
+     'normal = [0, 0, 0]}}]', "delete[0].region.normal"),
     ('scenario = "volcano"', "scenario"),
     ('scenario = "chute"\n[chute]\ndata_file = "no/such.data"', "chute.data_file"),
     ('scenario = "chute"\n[chute]\ndata_file = "x"', "box"),  # generic section in chute

@@ -176,6 +176,21 @@ def free_vector(dimension: str | None) -> Any:
     return Annotated[list[quantity(dimension)], AfterValidator(_free_vector)]
 
 
+def _not_zero(value: list[float]) -> list[float]:
+    if not any(v != 0.0 for v in value):
+        raise ValueError(f"{value!r} is not a direction; expected a vector with a non-zero "
+                         "component (any length)")
+    return value
+
+
+def direction(per_axis: bool = False) -> Any:
+    """A direction (a plane's normal, an axis): numbers without a unit, not all zero, any
+    length; 2 or 3 components (walls), or one per axis (``per_axis``, regions)."""
+    check = _one_per_axis if per_axis else _free_vector
+    return Annotated[list[quantity("dimensionless")], AfterValidator(check),
+                     AfterValidator(_not_zero)]
+
+
 class BoxRegion(_Model):
     """An axis-aligned block ``lo <= x <= hi``."""
 
@@ -203,6 +218,14 @@ class CylinderRegion(_Model):
     axis: Literal[0, 1, 2] = Field(
         2, description="the coordinate the cylinder runs along: 0, 1 or 2 for x, y or z")
 
+    @field_validator("hi")
+    @classmethod
+    def _hi_above_lo(cls, hi: float, info: ValidationInfo) -> float:
+        lo = info.data.get("lo")
+        if lo is not None and hi <= lo:
+            raise ValueError(f"{hi!r} is not valid; expected hi > lo = {lo!r}")
+        return hi
+
 
 class DiskRegion(_Model):
     """A 2D disk."""
@@ -220,7 +243,7 @@ class HalfSpaceRegion(_Model):
         description="'halfspace': the side of a plane (a line in 2D) that normal points to; "
         "unbounded, so not a fill or insertion region (e.g. for [[delete]])")
     point: vector("length") = Field(description="a point of the bounding plane (line in 2D)")
-    normal: vector(None) = Field(
+    normal: direction(per_axis=True) = Field(
         description="direction pointing into the half-space, not all 0 (any length)")
 
 
@@ -419,7 +442,7 @@ class PlaneWall(_Wall):
 
     shape: Literal["plane"] = Field(description="'plane': an infinite plane acting on one side")
     point: free_vector("length") = Field(description="a point of the plane")
-    normal: free_vector(None) = Field(description="towards the grains")
+    normal: direction() = Field(description="towards the grains")
 
 
 class SegmentWall(_Wall):
@@ -463,7 +486,7 @@ class CylinderWall(_Wall):
 
     shape: Literal["cylinder"] = Field(description="'cylinder': a circular tube or post")
     axis_point: free_vector("length") = Field(description="a point of the axis (s = 0)")
-    axis_direction: free_vector(None) = Field(
+    axis_direction: direction() = Field(
         [0.0, 0.0, 1.0], description="direction of the axis, in which s grows (normalised; "
         "not all 0)")
     radius: PositiveLength = Field(description="radius of the cylinder")
@@ -487,7 +510,7 @@ class ConeWall(_Wall):
 
     shape: Literal["cone"] = Field(
         description="'cone': a conical hopper or funnel, in the apex form or LAMMPS's form")
-    axis: Literal["x", "y", "z"] | free_vector(None) = Field(
+    axis: Literal["x", "y", "z"] | direction() = Field(
         description="apex form: the axis vector, towards the wide end; LAMMPS form: x, y or z")
     apex: free_vector("length") | None = Field(
         None, description="apex form: the cone's tip, where s = 0 (need not be part of the "
@@ -550,7 +573,7 @@ class PlateWithHoleWall(_Wall):
     shape: Literal["plate_with_hole"] = Field(
         description="'plate_with_hole': an infinite plate with a circular orifice")
     point: free_vector("length") = Field(description="the centre of the hole")
-    normal: free_vector(None) = Field(description="towards the grains")
+    normal: direction() = Field(description="towards the grains")
     hole_radius: PositiveLength = Field(description="radius of the orifice")
 
 
@@ -800,8 +823,10 @@ def _placement_problems(config: RunConfig) -> list[str]:
     for k, updater in enumerate(config.insert):
         # as LAMMPS's fix pour: grains are inserted inside the box
         bounds = _region_bounds(updater.region, dim)
-        axes = (_outside_box(box, dim, *bounds)
-                if box is not None and not isinstance(bounds, str) else "")
+        if isinstance(bounds, str):
+            problems.append(f"insert[{k}].region: {bounds.replace('filled', 'inserted into')}")
+            continue
+        axes = _outside_box(box, dim, *bounds) if box is not None else ""
         if axes:
             problems.append(f"insert[{k}].region: {_show_region(updater.region)} reaches "
                             f"outside the box on {axes}; expected an insertion region inside "
