@@ -136,8 +136,17 @@ snapshot(final, Path("pile_at_rest.png"), plane="xz", color_by=n_contacts,
 # RUN` on the command line) into an MP4 or a GIF. 3D frames are ray-traced by OVITO's
 # software renderer, spheres at their true radius seen from a fixed camera, coloured on one
 # speed scale for the whole movie, with the step and time above the picture. Here: the first
-# t = 8 of the run, one picture per 0.2 time units.
+# t = 8 of the run, one picture per 0.2 time units. Where OVITO cannot render (it needs a
+# Vulkan loader and Mesa's CPU driver: `bash scripts/setup_system.sh`), the movie falls back
+# to matplotlib's flat side view and says so.
 
 from grainflow.plotting.movie import write_movie
+from grainflow.plotting.render3d import RendererUnavailable
 
-write_movie(movie, "pile.mp4", color_by="speed", fps=10, size=(640, 480), progress="none")
+try:
+    write_movie(movie, "pile.mp4", color_by="speed", fps=10, size=(640, 480), progress="none")
+    print("rendered by OVITO")
+except RendererUnavailable as why:
+    print(f"OVITO cannot render here ({why}); drawn with matplotlib instead")
+    write_movie(movie, "pile.mp4", color_by="speed", fps=10, size=(640, 480),
+                renderer="matplotlib", plane="xz", progress="none")
