@@ -187,6 +187,26 @@ def test_bad_input_names_the_field(snippet: str, path: str) -> None:
     assert "\n" not in str(info.value)
 
 
+def test_a_2d_grain_density_is_per_area() -> None:
+    """A 2D grain is a disk: its density is mass per area, so "1 g/cm^2" is 10 kg/m^2 and a
+    per-volume unit is refused rather than converted with the wrong power of length."""
+    flat = {"dim": 2, "run": {"steps": 10}, "box": {"lo": [0, 0], "hi": [10, 10]},
+            "particles": [{"fill": "list", "positions": [[1, 1], [3, 1]], "radius": 0.5,
+                           "density": "1 g/cm^2"}],
+            "contact": {"law": "granular", "restitution": 0.8, "contact_time": 0.05,
+                        "mu": 0.5}}
+    assert load_config(flat).particles[0].density == pytest.approx(10.0)
+    flat["particles"][0]["density"] = "1 g/cm^3"
+    with pytest.raises(ConfigError, match=r"^particles\[0\]\.density: .*expected areal density"):
+        load_config(flat)
+    with pytest.raises(ConfigError, match=r"^particles\[0\]\.density: .*expected density"):
+        load_config(merged('particles = [{fill = "list", positions = [[1, 1, 1]], '
+                           'radius = 0.5, density = "2.5 g/cm^2"}]'))
+    assert load_config(merged('particles = [{fill = "list", positions = [[1, 1, 1]], '
+                              'radius = 0.5, density = "2.5 g/cm^3"}]')
+                       ).particles[0].density == pytest.approx(2500.0)
+
+
 def test_messages_give_value_and_what_is_valid() -> None:
     with pytest.raises(ConfigError) as info:
         load_config(merged("[contact]\nrestitution = 1.5"))

@@ -67,7 +67,7 @@ def test_plain_numbers_pass_through_unchanged(value):
     [
         ("200 uN", "length", "geometry.radius: '200 uN' has dimension force, expected length (e.g. '200 um')"),
         ("3 kg/m^3", "stiffness", "has dimension density, expected stiffness (e.g. '200 N/m')"),
-        ("3 kg/m^2", "length", "has dimension kg m^-2, expected length"),
+        ("3 kg/m^4", "length", "has dimension kg m^-4, expected length"),
         ("5 m", "dimensionless", "has dimension length, expected dimensionless (e.g. '200')"),
         ("200 furlong", "length", "unknown unit 'furlong'; known are units m, s, g, N, Pa, J"),
         ("200 um/hr", "velocity", "unknown unit 'hr' in 'um/hr'"),

@@ -45,6 +45,7 @@ DIMENSIONS: dict[str, tuple[Dim, str]] = {
     "velocity": ((0, 1, -1), "m/s"),
     "acceleration": ((0, 1, -2), "m/s^2"),
     "density": ((1, -3, 0), "kg/m^3"),
+    "areal density": ((1, -2, 0), "kg/m^2"),  # 2D grains: mass per unit area
     "stiffness": ((1, 0, -2), "N/m"),
     "frequency": ((0, 0, -1), "1/s"),
     "damping": ((1, 0, -1), "kg/s"),

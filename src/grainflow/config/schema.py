@@ -27,7 +27,7 @@ from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Di
 
 from grainflow.config.contact import Contact
 from grainflow.config.regions import region_of
-from grainflow.units import quantity
+from grainflow.units import parse_quantity, quantity
 from grainflow.scenarios import COMMON_SECTIONS, Scenario, get_scenario
 
 __all__ = ["ConfigError", "RunConfig", "load_config", "resolved_dict"]
@@ -53,6 +53,25 @@ def _one_per_axis(value: list[Any], info: ValidationInfo) -> list[Any]:
 def vector(dimension: str | None, **constraints: Any) -> Any:
     """A list of one quantity per axis (its length is checked against ``dim``)."""
     return Annotated[list[quantity(dimension, **constraints)], AfterValidator(_one_per_axis)]
+
+
+def _grain_density(value: Any, info: ValidationInfo) -> Any:
+    """A grain density to SI: mass per volume in 3D, mass per area in 2D (a 2D grain is a
+    disk), so a unit of the other kind is refused rather than converted by the wrong power of
+    length (``"1 g/cm^3"`` in a 2D run)."""
+    dim = (info.context or {}).get("dim", 3)
+    try:
+        return parse_quantity(value, "areal density" if dim == 2 else "density", field="\0")
+    except ValueError as err:
+        raise ValueError(str(err).removeprefix("\0: ") + (
+            " (a 2D grain's density is its mass per unit area)" if dim == 2 else "")) from None
+
+
+# the SI unit the configuration reference shows (the 3D one; descriptions give the 2D one)
+_grain_density.dimension = "density"  # type: ignore[attr-defined]
+#: Grain density: kg/m^3 in 3D, kg/m^2 in 2D; finite and > 0.
+GrainDensity = Annotated[float, BeforeValidator(_grain_density),
+                         Field(gt=0, allow_inf_nan=False)]
 
 
 def _listify(value: Any) -> Any:
@@ -273,7 +292,9 @@ class SizedPopulation(_Population):
         min_length=1, description="radius, or a list of radii (polydisperse)")
     fractions: list[Annotated[Finite, Field(gt=0)]] | None = Field(
         None, description="number fraction of each radius; default equal")
-    density: quantity("density", gt=0) | None = Field(None, description="default 1")
+    density: GrainDensity | None = Field(
+        None, description="mass density of the grains: per volume in 3D (kg/m^3), per area in "
+        "2D (kg/m^2; a 2D grain is a disk); default 1")
     mass: quantity("mass", gt=0) | None = Field(None, description="instead of density")
 
     @field_validator("fractions")
@@ -373,7 +394,7 @@ class _Inserting(_Model):
     radius: Annotated[list[PositiveLength], BeforeValidator(_listify),
                       Field(min_length=1, max_length=2)] = Field(
         description="radius of the inserted grains; two radii: inserted in equal numbers")
-    density: quantity("density", gt=0) = Field(
+    density: GrainDensity = Field(
         1.0, description="mass density of the inserted grains (2D: mass per unit area)")
     velocity: vector("velocity") | None = Field(
         None, description="initial velocity of the inserted grains; default at rest")
