@@ -121,6 +121,7 @@ BAD = [
     (["info", "{dir}"], 2, "no config.toml"),
     (["export", "{dir}", "--format", "csv"], 2, "--format: 'csv' is not valid"),
     (["run", "{cfg}", "-o", "{dir}/out", "--threads", "999"], 2, "threads: 999 is not valid"),
+    (["run", "{cfg}", "-o", "{dir}/out", "--threads", "0"], 2, "--threads: 0 is not valid"),
     (["study", "jets", "-o", "{dir}/s"], 2, "study: 'jets' is not known"),
     (["study", "hopper", "-o", "{dir}/s", "--convention", "paper"], 2,
      "--convention: 'paper' is not valid"),

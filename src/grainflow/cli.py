@@ -349,7 +349,11 @@ def _threads(text: str | None) -> "Threads | None":
 
     from grainflow.engine.threads import check_threads
 
-    value = check_threads("auto" if text == "auto" else int(text) if text.isdigit() else text)
+    try:
+        value = check_threads("auto" if text == "auto" else int(text) if text.isdigit()
+                              else text)
+    except ValueError as err:  # name the option the user typed
+        raise UsageError(f"--{err}") from None
     if value != "auto":
         numba.set_num_threads(value)
     return value
