@@ -446,7 +446,7 @@ def test_overwrite_with_a_config_that_fails_to_build_keeps_the_previous_run(tmp_
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--threads", "0", "info", "."], "error: threads: 0 is not valid; expected 'auto' or a"),
+    (["--threads", "0", "info", "."], "error: --threads: 0 is not valid; expected 'auto' or a"),
     (["run", "."], "error: Invalid value for 'config'"),
     (["nonsense"], "error: No such command 'nonsense'"),
 ])
