@@ -34,7 +34,7 @@ from rich.progress import (BarColumn, MofNCompleteColumn, Progress as RichBar, T
                            TimeRemainingColumn)
 
 __all__ = ["ItemProgress", "PlainItemProgress", "PlainProgress", "Progress",
-           "RichItemProgress", "RichProgress", "make_item_progress", "make_progress"]
+           "RichItemProgress", "RichProgress", "hms", "make_item_progress", "make_progress"]
 
 
 class Progress:
@@ -105,12 +105,12 @@ class PlainProgress(Progress):
         speed = (step - self._done0) / (now - self._t0) if now > self._t0 else 0.0
         eta = (self._total - step) / speed if speed > 0 else float("inf")
         self._print(f"step {step}/{self._total} ({pct:.1f}%)  N={n}  "
-                    f"{rate:.3g} particle-steps/s  eta {_clock(eta)}")
+                    f"{rate:.3g} particle-steps/s  eta {hms(eta)}")
 
     def close(self) -> None:
         if self._total:
             self._print(f"step {self._step}/{self._total} done in "
-                        f"{_clock(time.perf_counter() - self._t0)}")
+                        f"{hms(time.perf_counter() - self._t0)}")
 
     def _print(self, line: str) -> None:
         print(line, file=self.stream, flush=True)
@@ -218,12 +218,12 @@ class PlainItemProgress(ItemProgress):
         pct = 100.0 * self.done / self.total if self.total else 100.0
         note = f"  {info}" if info else ""
         self._print(f"{self.label} {self.done}/{self.total} ({pct:.1f}%)  "
-                    f"eta {_clock(self.eta())}{note}")
+                    f"eta {hms(self.eta())}{note}")
 
     def close(self) -> None:
         if self._open:
             self._open = False
-            self._print(f"{self.label} {self.done}/{self.total} done in {_clock(self.elapsed)}")
+            self._print(f"{self.label} {self.done}/{self.total} done in {hms(self.elapsed)}")
 
     def _print(self, line: str) -> None:
         print(line, file=self.stream, flush=True)
@@ -256,7 +256,8 @@ def _mode(mode: str, stream: TextIO) -> str:
     return mode
 
 
-def _clock(seconds: float) -> str:
+def hms(seconds: float) -> str:
+    """``seconds`` as ``H:MM:SS`` (``"?"`` when unknown: infinite)."""
     if seconds == float("inf"):
         return "?"
     s = int(round(seconds))

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Protocol
@@ -510,14 +510,17 @@ def _fit(picture: np.ndarray, size: tuple[int, int]) -> np.ndarray:
 # ---------------------------------------------------------------------------- orchestration
 @dataclass
 class _Scan:
-    """What the first pass found over the selected frames."""
+    """What the first pass found over the selected frames, with each frame's colour values
+    (kept for the second pass: network sizes are a graph search per frame)."""
 
     low: float = np.inf
     high: float = -np.inf
     lo: np.ndarray | None = None
     hi: np.ndarray | None = None
+    values: list[np.ndarray] = field(default_factory=list)
 
     def add_values(self, values: np.ndarray) -> None:
+        self.values.append(values)
         finite = values[np.isfinite(values)]
         if finite.size:
             self.low = min(self.low, float(finite.min()))
@@ -645,7 +648,7 @@ def write_movie(
     painter = _painter(kind, wanted, scan, scale, plane, quality, walls)
     try:
         with writer, make_item_progress(progress, len(chosen), "frame", interval=interval) as p:
-            for k, picture in _pictures(source, chosen, painter, color_by, delta, plane):
+            for k, picture in _pictures(source, chosen, painter, scan.values):
                 writer.append(picture)
                 if poster_path is not None and k == poster_index:
                     write_png(picture, poster_path)
@@ -695,12 +698,12 @@ def _painter(kind: str, wanted: tuple[int, int] | None, scan: _Scan, scale: Colo
     return _OvitoPainter(wanted or SIZE_3D, scan.lo, scan.hi, scale, plane, quality)
 
 
-def _pictures(source: FrameSource, chosen: list[int], painter: _Painter, color_by: str,
-              delta: float, plane: str | None) -> Iterator[tuple[int, np.ndarray]]:
-    """(frame number, picture) of each chosen frame, in order."""
-    for k in chosen:
-        frame = source[k]
-        yield k, painter.paint(frame, movie_values(frame, color_by, delta=delta, plane=plane))
+def _pictures(source: FrameSource, chosen: list[int], painter: _Painter,
+              values: list[np.ndarray]) -> Iterator[tuple[int, np.ndarray]]:
+    """(frame number, picture) of each chosen frame, in order, coloured by the ``values``
+    the scan found for it."""
+    for k, colours in zip(chosen, values):
+        yield k, painter.paint(source[k], colours)
 
 
 def _even(inches: tuple[float, float]) -> tuple[int, int]:

@@ -47,6 +47,7 @@ from distributed import Client, Future, LocalCluster, as_completed, get_worker
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from grainflow.progress import hms
 from grainflow.sweep.catalog import (
     CATALOG_NAME,
     Catalog,
@@ -658,7 +659,7 @@ class _Reporter:
         """'D/N done, F failed, R running, P pending; elapsed h:mm:ss, ETA h:mm:ss'."""
         return (
             f"{counts['done']}/{self.total} done, {self.activity(counts)}, "
-            f"{counts['pending']} pending; elapsed {_hms(time.monotonic() - self._t0)}, "
+            f"{counts['pending']} pending; elapsed {hms(time.monotonic() - self._t0)}, "
             f"ETA {self.eta_text(counts)}"
         )
 
@@ -667,7 +668,7 @@ class _Reporter:
 
     def eta_text(self, counts: dict[str, int]) -> str:
         eta = self._eta(counts)
-        return _hms(eta) if eta is not None else "?"
+        return hms(eta if eta is not None else float("inf"))
 
     def _eta(self, counts: dict[str, int]) -> float | None:
         """Remaining points times the mean time per point finished in this invocation."""
@@ -746,9 +747,3 @@ def _make_reporter(mode: str, console: Console, total: int, interval: float) -> 
     if mode == "rich" or (mode == "auto" and console.is_terminal):
         return _RichReporter(console, total)
     return _PlainReporter(console, total, interval)
-
-
-def _hms(seconds: float) -> str:
-    seconds = int(round(seconds))
-    hours, rest = divmod(seconds, 3600)
-    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}"

@@ -17,6 +17,7 @@ from grainflow.analysis.checks import each_frame
 from grainflow.analysis.checks import finite as _finite
 from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.checks import non_negative as _non_negative
+from grainflow.analysis.checks import paired_arrays
 from grainflow.analysis.checks import positive as _positive
 from grainflow.frame import Frame
 from grainflow.scenarios.stream import GRAVITY  # standard gravity (m/s^2), along -z
@@ -280,13 +281,7 @@ def depth_profile(
             raise ValueError(f"values: expected {len(frames_d)} frames like depths, got "
                              f"{len(frames_v)}")
     for f, (d, v) in enumerate(zip(frames_d, frames_v)):
-        da = np.asarray(d, dtype=float)
-        va = np.asarray(v, dtype=float)
-        if da.ndim != 1:
-            raise ValueError(f"depths: expected 1-D arrays, frame {f} has shape {da.shape}")
-        if va.shape != da.shape:
-            raise ValueError(f"values: frame {f} has shape {va.shape}, depths {da.shape}")
-        acc.add(da, va)
+        acc.add(*paired_arrays(f"depths[{f}]", d, f"values[{f}]", v))
     return acc.result()
 
 
