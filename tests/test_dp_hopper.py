@@ -29,7 +29,7 @@ def test_dp_hopper_counts_and_reinserts_whole_rings(particles):
     areas = np.abs(polygon_area(sim.state.x[index0, :2]))
     prepare(sim)
     updater = hopper_updater(sim)
-    sim.run(int(20.0 / sim.dt))
+    sim.run(int(20.0 / sim.dt), until=lambda s: updater.reinserted >= 3, until_every=200)
     assert updater.reinserted >= 3
     st = sim.state
     body, index = _rings(st)

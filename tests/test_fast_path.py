@@ -48,6 +48,18 @@ def _hopper(dim: int) -> Callable[[], Simulation]:
     return build
 
 
+def _smooth_dp_hopper() -> Simulation:
+    """Seven operations: force zeroing (no pair interaction), ring shape, edge contacts, two
+    wall sets, gravity and drag."""
+    from grainflow.scenarios.hopper import HopperSection, build_hopper, prepare
+
+    section = HopperSection(convention="authors", particles="dp_smooth", n=16, width=8.0,
+                            orifice_width=4.0, lam=math.inf, dt_fraction=0.15)
+    sim = build_hopper(section, 2, seed=2)
+    prepare(sim)
+    return sim
+
+
 def _two_laws_and_a_moving_wall() -> Simulation:
     """A granular law and a soft law on different type pairs, a static floor and a wall
     pushing in from the side at constant speed (time-dependent wall position)."""
@@ -66,6 +78,7 @@ CASES = {
     "2D hopper (walls, drag, reinsertion, observer)": (_hopper(2), 3000),
     "3D hopper (cylinder, cone, kinetic friction)": (_hopper(3), 1500),
     "two laws and a moving wall": (_two_laws_and_a_moving_wall, 2000),
+    "smooth DP hopper (seven operations)": (_smooth_dp_hopper, 3000),
 }
 
 
@@ -108,6 +121,32 @@ def test_compiled_steps_are_bitwise_python_steps(case: str) -> None:
 
         c = compiled.contacts()
         assert np.sum((c.kind == WALL) & (c.j == 1)) >= 3  # the moving wall does push
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_contacts_read_between_compiled_runs_are_those_of_the_last_step(threads: int) -> None:
+    """The compiled loop stores each pair's force only on the last step of a run of steps
+    (the pair loop's ``keep``); whatever Python reads after it, an observer's contacts or
+    the simulation's, must still be the last step's, bitwise as stepping in Python gives."""
+    import numba
+
+    if threads > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip("numba was started with a single thread")
+
+    def build() -> Simulation:
+        sim = _chute()
+        seen = sim.seen = []
+        sim.add_observer(lambda ctx: seen.append(ctx.contacts()), 23)
+        return sim
+
+    python = _run(build, 400, False, threads)
+    compiled = _run(build, 400, True, threads)
+    assert compiled._fast_path.steps_done > 200
+    assert len(python.seen) == len(compiled.seen) == 400 // 23
+    for a, b in zip(python.seen + [python.contacts()], compiled.seen + [compiled.contacts()]):
+        assert a.i.size > 100
+        for name in ("i", "j", "kind", "force", "branch"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
 
 
 def test_compiled_steps_on_two_threads_are_bitwise_one_thread() -> None:

@@ -319,6 +319,24 @@ def test_history_kernels_directly():
     np.testing.assert_array_equal(out, [[1, 1, 1, 1], [0, 0, 0, 0], [2, 2, 2, 2]])
 
 
+@pytest.mark.parametrize("dim, periodic, lengths", CASES)
+def test_dense_and_hashed_cell_lookups_give_the_same_table(dim, periodic, lengths):
+    """Compact boxes look cells up in a dense array, sparse ones in a hash table; both must
+    name the same occupied neighbour cells (strays outside the box make the box sparse)."""
+    st = _random_state(dim, periodic, lengths, 300, np.random.default_rng(7))
+    nl = NeighborList(0.1)
+    geom = ListGeometry.from_state(st)
+    nl.wrap(st, geom)
+    coords, keys, order, cmin, extent, ncell, offsets, _ = nl.cell_order(st, geom, 0.0)
+    cell_keys, first = np.unique(keys, return_index=True)
+    cell_coords = np.ascontiguousarray(coords[first])
+    args = (cell_coords, cell_keys, offsets, cmin, extent, geom.periodic, ncell)
+    dense = nk.cell_neighbor_table(*args, dense_limit=np.inf)
+    hashed = nk.cell_neighbor_table(*args, dense_limit=0)
+    np.testing.assert_array_equal(dense, hashed)
+    assert np.sum(dense >= 0) > cell_keys.size  # cells do have occupied neighbours
+
+
 # ------------------------------------------------------------------ sparse tall column
 @pytest.mark.parametrize("height_d", [1.0e3, 1.0e7])
 def test_tall_sparse_column_memory_is_order_n(monkeypatch, height_d):

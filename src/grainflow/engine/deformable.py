@@ -35,7 +35,7 @@ from grainflow.kernels.dp_shape import ring_areas, shape_energy, shape_forces
 from grainflow.rings import rest_length, state_ring_table
 
 
-def _shape_step(a, time, dt):
+def _shape_step(a, time, dt, last):
     """:meth:`ShapeForce.compute` in the compiled step loop (``KERNEL`` bound)."""
     KERNEL(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10])  # noqa: F821
 

@@ -46,7 +46,7 @@ REACH_ERROR = ("reach_factor: a deformable-ring edge became longer than the neig
                "of EdgeContacts minus the edge thickness; raise reach_factor")
 
 
-def _edge_step(a, time, dt):
+def _edge_step(a, time, dt, last):
     """:meth:`EdgeContacts.compute` in the compiled step loop (``TERMS`` and ``GATHER``
     bound)."""
     TERMS(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821

@@ -8,9 +8,12 @@ microseconds of dispatch, which on the seeds' system sizes (1,600 to 20,000 grai
 much as the arithmetic. :class:`FastPath` instead runs those calls for ``k`` steps in one
 compiled function, :func:`_run_steps`, specialised (:mod:`grainflow.kernels.specialize`) for
 the simulation's integrator and operations, each contributing a :class:`StepCall`: an
-adapter ``adapter(args, time, dt)`` compiled for it, doing exactly what its Python
-``compute(ctx, update=True)`` does at clock time ``time``, and the arrays and numbers it
-takes. The same kernels run in the same order on the same arrays, so a run is bitwise the
+adapter compiled for it, doing exactly what its Python ``compute(ctx, update=True)`` does at
+clock time ``time``, and the arrays and numbers it takes. A force operation's adapter is
+``adapter(args, time, dt, last)``: ``last`` is true on the last step of the run, after
+which Python reads the state, so an operation may skip records only Python reads (the pair
+loop's per-pair forces) on the other steps. The integrator's halves are
+``adapter(args, time, dt)``. The same kernels run in the same order on the same arrays, so a run is bitwise the
 same either way (tests/test_fast_path.py).
 
 The loop stops early, returning control to Python, after the first half of a step in which
@@ -29,19 +32,21 @@ from numba import njit
 from grainflow.kernels.neighbors import max_displacement_sq
 from grainflow.kernels.specialize import serial, specialize
 
-#: Force operations (pair interactions first) one compiled loop can hold.
-SLOTS = 6
+#: Force operations (pair interactions first) one compiled loop can hold: the smooth DP
+#: hopper has seven (force zeroing, shape, edges, two wall sets, gravity, drag).
+SLOTS = 8
 
 
 class StepCall(NamedTuple):
-    """A compiled ``adapter(args, time, dt)`` and the ``args`` tuple it is given."""
+    """A compiled adapter (``(args, time, dt, last)`` for a force operation, ``(args, time,
+    dt)`` for an integrator half) and the ``args`` tuple it is given."""
 
     adapter: Any
     args: tuple
 
 
 @njit(cache=True)
-def nothing(args, time, dt):
+def nothing(args, time, dt, last):
     """An empty slot."""
 
 
@@ -59,7 +64,7 @@ def kernel_for(kernel: Any) -> Any:
 
 
 @njit(cache=True)
-def _zero_forces(args, time, dt):
+def _zero_forces(args, time, dt, last):
     """Set force and torque to zero (what the first pair interaction's ``FIRST`` does)."""
     args[0][:] = 0.0
     args[1][:] = 0.0
@@ -90,12 +95,14 @@ def step_call(template: Any, name: str, args: tuple, *, serial_twins: bool = Tru
 
 
 def _run_steps(k, time, dt, limit, x, x_ref, box_len, periodic, pre_args, post_args,
-               a0, a1, a2, a3, a4, a5):
+               a0, a1, a2, a3, a4, a5, a6, a7):
     """Up to ``k`` steps from clock time ``time``: ``(steps done, new time, pending)``.
 
     ``pending``: the last step's first half is done but some particle moved more than
     ``sqrt(limit)`` since the list was built; the caller finishes that step (not counted in
-    the steps done). Template: ``PRE``, ``POST``, ``OP0`` ... ``OP5`` and ``DISPLACEMENT``
+    the steps done), rebuilding the list and computing every force in Python. Otherwise the
+    force operations are told which step is the ``k``-th, the last. Template: ``PRE``,
+    ``POST``, ``OP0`` ... ``OP7`` and ``DISPLACEMENT``
     (:func:`~grainflow.kernels.neighbors.max_displacement_sq`) are bound by
     :class:`FastPath`.
     """
@@ -103,12 +110,15 @@ def _run_steps(k, time, dt, limit, x, x_ref, box_len, periodic, pre_args, post_a
         PRE(pre_args, time, dt)  # noqa: F821 (bound names)
         if DISPLACEMENT(x, x_ref, box_len, periodic) > limit:  # noqa: F821
             return s, time, True
-        OP0(a0, time, dt)  # noqa: F821
-        OP1(a1, time, dt)  # noqa: F821
-        OP2(a2, time, dt)  # noqa: F821
-        OP3(a3, time, dt)  # noqa: F821
-        OP4(a4, time, dt)  # noqa: F821
-        OP5(a5, time, dt)  # noqa: F821
+        last = s == k - 1
+        OP0(a0, time, dt, last)  # noqa: F821
+        OP1(a1, time, dt, last)  # noqa: F821
+        OP2(a2, time, dt, last)  # noqa: F821
+        OP3(a3, time, dt, last)  # noqa: F821
+        OP4(a4, time, dt, last)  # noqa: F821
+        OP5(a5, time, dt, last)  # noqa: F821
+        OP6(a6, time, dt, last)  # noqa: F821
+        OP7(a7, time, dt, last)  # noqa: F821
         POST(post_args, time, dt)  # noqa: F821
         time = time + dt
     return k, time, False

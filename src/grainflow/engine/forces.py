@@ -24,7 +24,7 @@ def _add_body_force(force, mass, frozen, g0, g1, g2):
             force[i, 2] += m * g2
 
 
-def _gravity_step(a, time, dt):
+def _gravity_step(a, time, dt, last):
     """:meth:`Gravity.compute` in the compiled step loop (``ADD`` bound)."""
     ADD(a[0], a[1], a[2], a[3], a[4], a[5])  # noqa: F821
 
@@ -72,7 +72,7 @@ def _add_drag(force, v, zeta_of_type, ptype, frozen):
             force[i, 2] -= z * v[i, 2]
 
 
-def _drag_step(a, time, dt):
+def _drag_step(a, time, dt, last):
     """:meth:`Drag.compute` (per grain) in the compiled step loop (``ADD`` bound)."""
     ADD(a[0], a[1], a[2], a[3], a[4])  # noqa: F821
 
@@ -88,7 +88,7 @@ def _add_mass_drag(force, v, mass, rate_of_type, ptype, frozen):
             force[i, 2] -= c * v[i, 2]
 
 
-def _mass_drag_step(a, time, dt):
+def _mass_drag_step(a, time, dt, last):
     """:meth:`Drag.compute` (per unit mass) in the compiled step loop (``ADD`` bound)."""
     ADD(a[0], a[1], a[2], a[3], a[4], a[5])  # noqa: F821
 

@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from grainflow.kernels import fire
+
 if TYPE_CHECKING:
     from grainflow.engine.simulation import Simulation
 
@@ -66,13 +68,7 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None,
     try:
         while steps < max_steps and not done():
             sim.dt = dt
-            a = st.force / st.mass[:, None]
-            st.v[mobile] += 0.5 * dt * a[mobile]
-            power = float(np.sum(st.force[mobile] * st.v[mobile]))
-            vnorm = np.sqrt(np.sum(st.v[mobile] ** 2))
-            fnorm = np.sqrt(np.sum(st.force[mobile] ** 2))
-            if fnorm > 0:
-                st.v[mobile] = (1 - alpha) * st.v[mobile] + alpha * vnorm * st.force[mobile] / fnorm
+            power = fire.kick_and_mix(st.v, st.force, st.mass, st.frozen, dt, alpha)
             if power > 0:
                 since_negative += 1
                 if since_negative > n_min:
@@ -83,9 +79,9 @@ def minimize_fire(sim: "Simulation", *, overlap_tol: float | None = None,
                 dt *= f_dec
                 alpha = alpha_start
                 st.v[:] = 0.0
-            st.x[mobile] += dt * st.v[mobile]
+            fire.drift(st.x, st.v, st.frozen, dt)
             sim.compute_forces(update=False)
-            st.v[mobile] += 0.5 * dt * (st.force[mobile] / st.mass[mobile, None])
+            fire.half_kick(st.v, st.force, st.mass, st.frozen, dt)
             steps += 1
             if steps % 10 == 0 or steps == max_steps:
                 overlap = sim.max_overlap()

@@ -166,6 +166,19 @@ class NeighborList:
         self._generation = state.generation
         self.builds += 1
 
+    def build_empty(self, state: ParticleState) -> None:
+        """A list of no pairs, for a simulation where nothing reads pairs (grains under
+        gravity and drag only, against walls): only the displacement reference is taken,
+        which still times the periodic wrap and the walls' choice of the particles to visit.
+        Skips the cell sort and scan, which for two free-falling grains cost 0.6 ms a step."""
+        n = state.n
+        self.row_ptr = np.zeros(n + 1, dtype=np.int64)
+        self.nbr = np.zeros(0, dtype=np.int64)
+        self.index_columns()
+        self._x_ref = state.x.copy()
+        self._generation = state.generation
+        self.builds += 1
+
     def index_columns(self) -> None:
         """Derive the transpose (``col_ptr``, ``col_pair``, ``pair_col``, ``col_span``)."""
         n = self.row_ptr.shape[0] - 1

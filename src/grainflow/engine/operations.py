@@ -210,15 +210,16 @@ class Force(ABC):
         """Add this operation's forces at the current positions."""
 
     def step_call(self, ctx: ForceContext) -> "StepCall | None":
-        """``compute(ctx, update=True)`` as a compiled call for runs of steps without Python
-        (:mod:`grainflow.engine.fast_path`), valid until the particle set or the neighbour
-        list changes; None (the default): the simulation steps in Python."""
+        """``compute(ctx, update=True)`` as a compiled call ``adapter(args, time, dt, last)``
+        for runs of steps without Python (:mod:`grainflow.engine.fast_path`), valid until the
+        particle set or the neighbour list changes; None (the default): the simulation steps
+        in Python."""
         return None
 
-    def neighbor_reach(self) -> float:
+    def neighbor_reach(self) -> float | None:
         """How far beyond touching (``r_i + r_j``) this operation needs the neighbour list
-        to list pairs; 0 (the default) for an operation that does not read the list."""
-        return 0.0
+        to list pairs; None (the default) for an operation that does not read the pairs."""
+        return None
 
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
         """The times this operation's forces need resolved (for the time-step check)."""

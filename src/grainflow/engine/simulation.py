@@ -332,8 +332,15 @@ class Simulation:
     def reach(self) -> float:
         """Largest reach beyond touching of the pair interactions and of the force
         operations that read the neighbour list (the list's margin)."""
+        reaches = [f.neighbor_reach() for f in self.forces]
         return max([i.law.reach() for i in self.interactions]
-                   + [f.neighbor_reach() for f in self.forces], default=0.0)
+                   + [r for r in reaches if r is not None], default=0.0)
+
+    def _lists_pairs(self) -> bool:
+        """Whether some operation reads the neighbour list's pairs (a pair interaction, or a
+        force whose :meth:`~grainflow.engine.operations.Force.neighbor_reach` is not None)."""
+        return bool(self.interactions) or any(f.neighbor_reach() is not None
+                                              for f in self.forces)
 
     def _refresh_list(self) -> None:
         st = self.state
@@ -341,6 +348,10 @@ class Simulation:
         if not nl.needs_build(st, self.geometry):
             return
         nl.wrap(st, self.geometry)
+        if not self._lists_pairs():  # lone grains: the wrap and the walls' cadence only
+            nl.build_empty(st)
+            self.rebuilds += 1
+            return
         cells = nl.cell_order(st, self.geometry, self.reach())
         new_to_old = None
         if nl.sort_due() and st.n:

@@ -101,19 +101,46 @@ def _lookup(slots, bits, cell_keys, key):
         h = (h + 1) & mask
 
 
+#: The cells are looked up in a dense array over the occupied cells' bounding box (instead
+#: of a hash table) when the box holds at most this many cells per occupied cell.
+DENSE_CELLS_PER_OCCUPIED = 8
+
+
+@njit(cache=True)
+def dense_cell_index(cell_keys, n_keys):
+    """``at[key]`` = index of the occupied cell with that key, -1 for an empty one."""
+    at = np.full(n_keys, -1, dtype=np.int64)
+    for c in range(cell_keys.shape[0]):
+        at[cell_keys[c]] = c
+    return at
+
+
 @njit(cache=True, parallel=True)
-def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic, ncell):
+def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic, ncell,
+                        dense_limit=DENSE_CELLS_PER_OCCUPIED):
     """For each occupied cell, the indices of its occupied neighbour cells (-1: empty).
 
     ``cell_coords`` (C, 3) are the integer coordinates of the occupied cells; ``offsets``
     (Q, 3) the stencil (27 cells in 3D, 9 in 2D, fewer on short periodic axes).
 
-    Consecutive stencil entries along the last axis usually have consecutive keys: then the
-    cell after the previous entry's cell is the only candidate (``cell_keys`` is sorted), so
-    the hash is consulted about once per run of three instead of once per entry.
+    Where the bounding box of the occupied cells holds at most ``dense_limit`` (default
+    :data:`DENSE_CELLS_PER_OCCUPIED`) cells per occupied one (a packing, a flowing pile) a
+    cell is found by indexing a dense array over the box: about 4x faster than the hash
+    table used otherwise (a dilute stream, a jet), whose memory stays proportional to the
+    occupied cells. With the hash, consecutive stencil entries along the last axis usually
+    have consecutive keys: then the cell after the previous entry's cell is the only
+    candidate (``cell_keys`` is sorted), so the hash is consulted about once per run of
+    three instead of once per entry.
     """
-    slots, bits = cell_hash(cell_keys)
     nc = cell_keys.shape[0]
+    n_keys = extent[0] * extent[1] * extent[2]
+    dense = n_keys <= dense_limit * nc
+    if dense:
+        at = dense_cell_index(cell_keys, n_keys)
+        slots, bits = np.full(1, -1, dtype=np.int64), 0
+    else:
+        at = np.full(1, -1, dtype=np.int64)
+        slots, bits = cell_hash(cell_keys)
     nq = offsets.shape[0]
     table = np.empty((nc, nq), dtype=np.int64)
     for c in prange(nc):
@@ -135,6 +162,8 @@ def cell_neighbor_table(cell_coords, cell_keys, offsets, cmin, extent, periodic,
                 key = key * extent[a] + ca
             if not inside:
                 found = -1
+            elif dense:
+                found = at[key]
             elif key == prev_key + 1 and prev_cell >= 0:
                 nxt = prev_cell + 1
                 found = nxt if nxt < nc and cell_keys[nxt] == key else -1

@@ -200,7 +200,7 @@ def _wall_overlaps(kinds, params, shift, x, radius, frozen, acts_on, ptype):
     return best
 
 
-def _wall_step(a, time, dt):
+def _wall_step(a, time, dt, last):
     """:meth:`WallForce.compute` (``update=True``) in the compiled step loop: the walls at
     the end of the step, ``time + dt``; the wall kernel ``KERNEL`` is bound by
     :meth:`WallForce.step_call`."""
