@@ -178,3 +178,17 @@ def test_until_is_asked_every_until_every_steps() -> None:
     assert sim._fast_path.steps_done > 300
     with pytest.raises(ValueError, match="until_every"):
         sim.run(10, until=lambda s: False, until_every=0)
+
+
+def test_step_calls_compile_no_literal_specialisations() -> None:
+    """A constant passed from an adapter (``update=True``) would type as a literal and
+    compile the pair or wall kernel a second time, for that constant (seconds each, cold)."""
+    from grainflow.kernels.specialize import serial
+
+    sim = _run(_hopper(2), 200, True)
+    kernels = [serial(k) for i in sim.interactions for k in i._kernels.values()]
+    kernels += [serial(f._kernel) for f in sim.forces if isinstance(f, WallForce)]
+    assert len(kernels) >= 2
+    for kernel in kernels:
+        assert kernel.signatures
+        assert not any("Literal" in str(sig) for sig in kernel.signatures), kernel

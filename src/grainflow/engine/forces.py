@@ -12,6 +12,7 @@ from numba import njit, prange
 
 from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import Force, ForceContext, TimeScale
+from grainflow.kernels.specialize import for_threads_now
 
 
 @njit(cache=True, parallel=True)
@@ -47,7 +48,8 @@ class Gravity(Force):
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
-        _add_body_force(st.force, st.mass, st.frozen, self.g[0], self.g[1], self.g[2])
+        for_threads_now(_add_body_force)(st.force, st.mass, st.frozen, self.g[0], self.g[1],
+                                         self.g[2])
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         st = ctx.state
@@ -141,10 +143,11 @@ class Drag(Force):
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
         if self.per_mass:
-            _add_mass_drag(st.force, st.v, st.mass, self._values_of_types(st), st.type,
+            for_threads_now(_add_mass_drag)(st.force, st.v, st.mass, self._values_of_types(st), st.type,
                            st.frozen)
         else:
-            _add_drag(st.force, st.v, self._values_of_types(st), st.type, st.frozen)
+            for_threads_now(_add_drag)(st.force, st.v, self._values_of_types(st), st.type,
+                                       st.frozen)
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         st = ctx.state

@@ -15,6 +15,7 @@ import numpy as np
 from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import ForceContext, Integrator
 from grainflow.kernels import integrate as ik
+from grainflow.kernels.specialize import for_threads_now
 
 
 def _first_half_step(a, time, dt):
@@ -34,13 +35,13 @@ class VelocityVerlet(Integrator):
 
     def pre_force(self, ctx: ForceContext) -> None:
         st = ctx.state
-        ik.verlet_first_half(st.x, st.v, st.omega, st.force, st.torque, st.mass, st.inertia,
-                             st.frozen, ctx.dt)
+        for_threads_now(ik.verlet_first_half)(st.x, st.v, st.omega, st.force, st.torque,
+                                              st.mass, st.inertia, st.frozen, ctx.dt)
 
     def post_force(self, ctx: ForceContext) -> None:
         st = ctx.state
-        ik.verlet_second_half(st.v, st.omega, st.force, st.torque, st.mass, st.inertia,
-                              st.frozen, ctx.dt)
+        for_threads_now(ik.verlet_second_half)(st.v, st.omega, st.force, st.torque, st.mass,
+                                               st.inertia, st.frozen, ctx.dt)
 
     def step_calls(self, ctx: ForceContext) -> tuple[StepCall, StepCall]:
         st = ctx.state

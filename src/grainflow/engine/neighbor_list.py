@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainflow.kernels import neighbors as nk
+from grainflow.kernels.specialize import for_threads_now
 from grainflow.state import ParticleState
 
 
@@ -77,7 +78,8 @@ class NeighborList:
         """True if indices changed or some particle moved more than skin/2."""
         if not self.is_current_for(state):
             return True
-        d2 = nk.max_displacement_sq(state.x, self._x_ref, geom.length, geom.periodic)
+        d2 = for_threads_now(nk.max_displacement_sq)(state.x, self._x_ref, geom.length,
+                                                      geom.periodic)
         return d2 > 0.25 * self.skin * self.skin
 
     def wrap(self, state: ParticleState, geom: ListGeometry) -> None:

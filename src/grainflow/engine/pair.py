@@ -23,6 +23,7 @@ from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeSc
 from grainflow.frame import PAIR
 from grainflow.kernels import neighbors as nk
 from grainflow.kernels.pair_loop import ACTIVE, active_pairs, gather_pair_forces, pair_kernel
+from grainflow.kernels.specialize import for_threads_now
 from grainflow.models.base import ContactLaw
 
 
@@ -30,10 +31,11 @@ def _pair_step(a, time, dt, last):
     """:meth:`PairInteraction.compute` (``update=True``) in the compiled step loop, keeping
     every pair's force only on the ``last`` step of the run (:mod:`~grainflow.kernels.
     pair_loop`'s ``keep``); the pair kernel ``KERNEL`` and the gather ``GATHER`` are bound
-    by :meth:`PairInteraction.step_call`."""
+    by :meth:`PairInteraction.step_call`. ``update`` (true) comes in ``a[26]``: a literal
+    ``True`` here would compile the kernel once more, for that constant."""
     KERNEL(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
            a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], dt,
-           True, last, a[22], a[23])
+           a[26], last, a[22], a[23])
     GATHER(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])  # noqa: F821
 
 
@@ -128,13 +130,14 @@ class PairInteraction(Force):
     def compute(self, ctx: ForceContext, update: bool, first: bool = False) -> None:
         """Evaluate the law over the list; ``first``: set (not add to) force and torque."""
         kernel, a = self._prepare(ctx, first)
-        kernel(*a[:22], ctx.dt, update, True, a[22], a[23])
-        gather_pair_forces(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])
+        for_threads_now(kernel)(*a[:22], ctx.dt, update, True, a[22], a[23])
+        for_threads_now(gather_pair_forces)(a[24], a[25], a[13], a[14], a[16], a[18], a[19],
+                                            a[6], a[22], a[23])
 
     def step_call(self, ctx: ForceContext, first: bool = False) -> StepCall:
         """``compute(ctx, update=True, first)`` for the compiled step loop."""
         kernel, args = self._prepare(ctx, first)
-        return step_call(_pair_step, "pair_step", args, KERNEL=kernel,
+        return step_call(_pair_step, "pair_step", (*args, True), KERNEL=kernel,
                          GATHER=gather_pair_forces)
 
     def _prepare(self, ctx: ForceContext, first: bool) -> tuple[Any, tuple]:

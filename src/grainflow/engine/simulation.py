@@ -397,15 +397,6 @@ class Simulation:
             raise ValueError("steps: must be >= 0")
         if until_every < 1:
             raise ValueError(f"until_every: {until_every!r} is not valid; expected >= 1")
-        self.check_time_step()
-        if not self.forces_current:
-            self.compute_forces(update=False)
-        self._energy_ref = None  # the state may have been edited between runs
-        self.check_state()
-        for o in self.observers:
-            start = getattr(o.owner, "start", None)
-            if start is not None:
-                start(self.observer_context)
         integ = self.integrator
         ctx = self.context
         clock = self.clock
@@ -414,17 +405,32 @@ class Simulation:
         self._fast_path.forget()
         before = numba.get_num_threads()
         tuner = None
+        # the thread count is set before the set-up evaluation, which then compiles (or
+        # loads) the kernels of that count, not of the caller's; the thread tuner's clock
+        # starts after it (a first compilation must not count against the count in use)
         if self._threads == "auto":
             tuner = self._tuner
             if tuner is None or tuner.cap != before:
                 tuner = self._tuner = ThreadTuner(before, log=self.thread_log)
-                tuner.begin(clock.step, self.state.n, self.particle_steps)
-            else:
-                tuner.resume(clock.step, self.particle_steps)
+            tuner.set_threads(tuner.count_to_go_on() if tuner.started
+                              else tuner.first_count(self.state.n))
         else:
             numba.set_num_threads(min(self._threads, numba.config.NUMBA_NUM_THREADS))
         t0 = _time.perf_counter()
         try:
+            self.check_time_step()
+            if not self.forces_current:
+                self.compute_forces(update=False)
+            self._energy_ref = None  # the state may have been edited between runs
+            self.check_state()
+            for o in self.observers:
+                start = getattr(o.owner, "start", None)
+                if start is not None:
+                    start(self.observer_context)
+            if tuner is not None and tuner.started:
+                tuner.resume(clock.step, self.particle_steps)
+            elif tuner is not None:
+                tuner.begin(clock.step, self.state.n, self.particle_steps)
             while clock.step < end:
                 quiet = self._quiet_steps(end, tuner, until, until_every)
                 calls = None

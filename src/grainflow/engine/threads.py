@@ -91,9 +91,23 @@ class ThreadTuner:
     log: list[tuple[int, int, float]] = field(default_factory=list)
     next_step: int = 0
 
+    @property
+    def started(self) -> bool:
+        """Whether :meth:`begin` was called (a later run then calls :meth:`resume`)."""
+        return hasattr(self, "_recent")
+
+    def first_count(self, n_particles: int) -> int:
+        """The count a run of ``n_particles`` starts on: one thread below
+        :data:`SERIAL_BELOW` particles, all of them from there."""
+        return 1 if n_particles < SERIAL_BELOW else self.cap
+
+    def count_to_go_on(self) -> int:
+        """The count :meth:`resume` goes on with: the one in use, not a trial's."""
+        return self._other if self._trial else self.threads
+
     def begin(self, step: int, n_particles: int, particle_steps: int) -> None:
         """Set the starting count and open the first window at ``step``."""
-        self.threads = 1 if n_particles < SERIAL_BELOW else self.cap
+        self.threads = self.first_count(n_particles)
         self.set_threads(self.threads)
         self._recent: list[float] = []  # costs of the last full windows of the count in use
         self._settled_cost = float("inf")  # its typical cost when it was last chosen
@@ -111,9 +125,8 @@ class ThreadTuner:
 
     def resume(self, step: int, particle_steps: int) -> None:
         """Go on in a new run with the count chosen so far (a trial under way is dropped)."""
-        if self._trial:
-            self._trial = 0
-            self.threads = self._other
+        self.threads = self.count_to_go_on()
+        self._trial = 0
         self.set_threads(self.threads)
         self._open(step, particle_steps, self._steps_for(self.window_s))
 

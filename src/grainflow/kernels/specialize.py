@@ -22,6 +22,7 @@ import zlib
 from pathlib import Path
 from typing import Any, Callable
 
+import numba
 from numba import njit
 
 _CACHE: dict[tuple, Any] = {}
@@ -103,3 +104,12 @@ def serial(kernel: Any) -> Any:
     :mod:`grainflow.engine.fast_path` uses these twins when it runs on one thread."""
     fn = kernel.py_func
     return specialize(fn, fn.__name__ + "_serial", {}, parallel=False)
+
+
+def for_threads_now(kernel: Any) -> Any:
+    """``kernel`` or, when numba runs one thread, its :func:`serial` twin: what a Python
+    call site uses where the compiled step loop calls the twin on one thread, so that a
+    one-thread run compiles each kernel once, not twice (a pair kernel with its law inlined
+    takes 10-20 s to compile; most of the test suite runs on one thread). The two give
+    bitwise the same result (tests/test_fast_path.py)."""
+    return serial(kernel) if numba.get_num_threads() == 1 else kernel

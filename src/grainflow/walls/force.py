@@ -51,7 +51,7 @@ from numba import prange
 from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import WALL
-from grainflow.kernels.specialize import specialize
+from grainflow.kernels.specialize import for_threads_now, specialize
 from grainflow.models.base import ContactLaw
 from grainflow.walls.geometry import Wall, closest_point
 
@@ -203,9 +203,11 @@ def _wall_overlaps(kinds, params, shift, x, radius, frozen, acts_on, ptype):
 def _wall_step(a, time, dt, last):
     """:meth:`WallForce.compute` (``update=True``) in the compiled step loop: the walls at
     the end of the step, ``time + dt``; the wall kernel ``KERNEL`` is bound by
-    :meth:`WallForce.step_call`."""
+    :meth:`WallForce.step_call`. ``update`` (true) and the record flag (false) come in
+    ``a[19]`` and ``a[20]``: literal constants here would compile the kernel once more."""
     KERNEL(a[0], a[1], a[2], a[3], a[4], a[5] * (time + dt), a[5], a[6], a[7], a[8],  # noqa: F821
-           a[9], a[10], a[11], a[12], a[13], a[14], dt, True, a[15], a[16], False, a[17], a[18])
+           a[9], a[10], a[11], a[12], a[13], a[14], dt, a[19], a[15], a[16], a[20], a[17],
+           a[18])
 
 
 class WallForce(Force):
@@ -333,8 +335,8 @@ class WallForce(Force):
         st = ctx.state
         visit = np.arange(st.n, dtype=np.int64) if out is not None else self._near(ctx)
         a = self._arguments(ctx, force, torque, out, visit)
-        self._kernel(*a[:5], self._shift(time), *a[5:15], ctx.dt, update, a[15], a[16],
-                     out is not None, a[17], a[18])
+        for_threads_now(self._kernel)(*a[:5], self._shift(time), *a[5:15], ctx.dt, update,
+                                      a[15], a[16], out is not None, a[17], a[18])
 
     def _arguments(self, ctx: ForceContext, force: np.ndarray, torque: np.ndarray,
                    out: np.ndarray | None, visit: np.ndarray) -> tuple:
@@ -359,7 +361,7 @@ class WallForce(Force):
         """``compute(ctx, update=True)`` for the compiled step loop."""
         st = ctx.state
         a = self._arguments(ctx, st.force, st.torque, None, self._near(ctx))
-        return step_call(_wall_step, "wall_step", a, KERNEL=self._kernel)
+        return step_call(_wall_step, "wall_step", (*a, True, False), KERNEL=self._kernel)
 
     def contacts(self, ctx: ForceContext) -> list[ContactRows]:
         """Particle-wall contacts now: particle index, wall index, force on the particle,
