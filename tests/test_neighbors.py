@@ -320,6 +320,30 @@ def test_history_kernels_directly():
 
 
 @pytest.mark.parametrize("dim, periodic, lengths", CASES)
+def test_rows_that_reach_across_a_periodic_boundary_are_flagged(dim, periodic, lengths):
+    """The pair loop skips the minimum image in rows without a pair across a boundary; a row
+    left unflagged would lose that pair's force. Checked against the raw differences, and
+    the flags must stay right as particles drift up to half the skin and back inside."""
+    st = _random_state(dim, periodic, lengths, 300, np.random.default_rng(11))
+    nl, geom = _build(st, 0.1, 0.0)
+    rows = np.repeat(np.arange(st.n), np.diff(nl.row_ptr))
+    raw = np.abs(st.x[rows] - st.x[nl.nbr])
+    across = np.any(geom.periodic & (raw > 0.5 * geom.length), axis=1)
+    expected = np.zeros(st.n, dtype=np.uint8)
+    expected[rows[across]] = 1
+    np.testing.assert_array_equal(nl.row_wraps, expected)
+    if np.any(geom.periodic[:dim] & (np.asarray(geom.length[:dim]) > 4.0)):
+        assert expected.any()
+    # after a drift below half the skin, unflagged rows still need no minimum image
+    drift = np.random.default_rng(3).uniform(-0.049, 0.049, st.x.shape) / np.sqrt(3)
+    x = st.x + drift * ~st.frozen[:, None]
+    d = x[rows] - x[nl.nbr]
+    folded = d - geom.length * np.rint(d / geom.length) * geom.periodic
+    plain = ~nl.row_wraps[rows].astype(bool)
+    np.testing.assert_array_equal(folded[plain], d[plain])
+
+
+@pytest.mark.parametrize("dim, periodic, lengths", CASES)
 def test_dense_and_hashed_cell_lookups_give_the_same_table(dim, periodic, lengths):
     """Compact boxes look cells up in a dense array, sparse ones in a hash table; both must
     name the same occupied neighbour cells (strays outside the box make the box sparse)."""

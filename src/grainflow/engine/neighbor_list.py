@@ -66,6 +66,9 @@ class NeighborList:
         self.col_pair = np.zeros(0, dtype=np.int64)
         self.pair_col = np.zeros(0, dtype=np.int64)
         self.col_span = np.zeros((0, 2), dtype=np.int64)
+        #: Per row: some pair of it reaches across a periodic boundary (the pair loop takes
+        #: the minimum image only in those rows).
+        self.row_wraps = np.zeros(0, dtype=np.uint8)
         self._x_ref = np.zeros((0, 3))
         self._generation = -1
         self._capacity = 16
@@ -163,8 +166,9 @@ class NeighborList:
             state.x, state.radius, state.frozen, state.body, cell_of, table, cell_start,
             order.astype(np.int64), geom.length, geom.periodic, margin, self._capacity,
             bool(np.all(order == np.arange(n))))
-        self.index_columns()
         self._x_ref = state.x.copy()
+        self.index_rows(geom)
+        self.index_columns()
         self._generation = state.generation
         self.builds += 1
 
@@ -176,10 +180,16 @@ class NeighborList:
         n = state.n
         self.row_ptr = np.zeros(n + 1, dtype=np.int64)
         self.nbr = np.zeros(0, dtype=np.int64)
+        self.row_wraps = np.zeros(n, dtype=np.uint8)
         self.index_columns()
         self._x_ref = state.x.copy()
         self._generation = state.generation
         self.builds += 1
+
+    def index_rows(self, geom: ListGeometry) -> None:
+        """Derive ``row_wraps`` from the rows and the positions of the last build."""
+        self.row_wraps = nk.rows_crossing_periodic(self.row_ptr, self.nbr, self._x_ref,
+                                                   geom.length, geom.periodic)
 
     def index_columns(self) -> None:
         """Derive the transpose (``col_ptr``, ``col_pair``, ``pair_col``, ``col_span``)."""
@@ -201,6 +211,7 @@ class NeighborList:
 
     def nbytes(self) -> int:
         """Memory held by the list and its transpose."""
-        return int(self.row_ptr.nbytes + self.nbr.nbytes + self.col_ptr.nbytes
+        return int(self.row_ptr.nbytes + self.nbr.nbytes + self.row_wraps.nbytes
+                   + self.col_ptr.nbytes
                    + self.col_pair.nbytes + self.pair_col.nbytes + self.col_span.nbytes
                    + self._x_ref.nbytes)

@@ -31,11 +31,11 @@ def _pair_step(a, time, dt, last):
     """:meth:`PairInteraction.compute` (``update=True``) in the compiled step loop, keeping
     every pair's force only on the ``last`` step of the run (:mod:`~grainflow.kernels.
     pair_loop`'s ``keep``); the pair kernel ``KERNEL`` and the gather ``GATHER`` are bound
-    by :meth:`PairInteraction.step_call`. ``update`` (true) comes in ``a[26]``: a literal
+    by :meth:`PairInteraction.step_call`. ``update`` (true) comes in ``a[27]``: a literal
     ``True`` here would compile the kernel once more, for that constant."""
     KERNEL(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
            a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], dt,
-           a[26], last, a[22], a[23])
+           a[27], last, a[22], a[23], a[26])
     GATHER(a[24], a[25], a[13], a[14], a[16], a[18], a[19], a[6], a[22], a[23])  # noqa: F821
 
 
@@ -130,7 +130,7 @@ class PairInteraction(Force):
     def compute(self, ctx: ForceContext, update: bool, first: bool = False) -> None:
         """Evaluate the law over the list; ``first``: set (not add to) force and torque."""
         kernel, a = self._prepare(ctx, first)
-        for_threads_now(kernel)(*a[:22], ctx.dt, update, True, a[22], a[23])
+        for_threads_now(kernel)(*a[:22], ctx.dt, update, True, a[22], a[23], a[26])
         for_threads_now(gather_pair_forces)(a[24], a[25], a[13], a[14], a[16], a[18], a[19],
                                             a[6], a[22], a[23])
 
@@ -160,7 +160,7 @@ class PairInteraction(Force):
                         st.radius, st.mass, st.type, st.frozen, nl.row_ptr, nl.nbr,
                         nl.pair_col, nl.col_span, chunks, self.history, self.fc_pair,
                         self.active, self.active_col, self.col_sum, g.length, g.periodic,
-                        st.force, st.torque, nl.col_ptr, nl.col_pair)
+                        st.force, st.torque, nl.col_ptr, nl.col_pair, nl.row_wraps)
 
     def contacts(self, ctx: ForceContext) -> list[ContactRows]:
         """Interacting pairs at the last evaluation: force on i, branch x_i - x_j."""

@@ -783,6 +783,7 @@ class Simulation:
         nl.nbr = np.asarray(nb["nbr"], dtype=np.int64)
         nl.index_columns()  # the transpose is a function of the rows (saved for readers)
         nl._x_ref = np.asarray(nb["x_ref"], dtype=np.float64)
+        nl.index_rows(self.geometry)
         nl.builds = int(nb["builds"])
         nl._generation = st.generation
         saved = data.get("interactions", {})

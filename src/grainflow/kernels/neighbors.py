@@ -445,6 +445,26 @@ def reindex_pairs(row_ptr, nbr, hist, old_to_new, flip):
 
 
 @njit(cache=True, parallel=True)
+def rows_crossing_periodic(row_ptr, nbr, x, box_len, periodic):
+    """Per row ``i``: 1 if some listed pair ``(i, j)`` has ``|x_i - x_j| > L/2`` along a
+    periodic axis (it reaches across the boundary, so its branch vector needs the minimum
+    image), else 0.
+
+    Valid until the next build: positions are folded into the box only at a build, and
+    between two builds no particle moves more than half the skin, so a pair's raw
+    difference stays near 0 (a pair inside the box) or near ``L`` (across it)."""
+    n = row_ptr.shape[0] - 1
+    out = np.zeros(n, dtype=np.uint8)
+    for i in prange(n):
+        for k in range(row_ptr[i], row_ptr[i + 1]):
+            j = nbr[k]
+            for a in range(3):
+                if periodic[a] and abs(x[i, a] - x[j, a]) > 0.5 * box_len[a]:
+                    out[i] = 1
+    return out
+
+
+@njit(cache=True, parallel=True)
 def max_displacement_sq(x, x_ref, box_len, periodic):
     """Largest squared displacement since the last list build (minimum image)."""
     best = 0.0
