@@ -431,6 +431,7 @@ class Simulation:
                 tuner.resume(clock.step, self.particle_steps)
             elif tuner is not None:
                 tuner.begin(clock.step, self.state.n, self.particle_steps)
+            t0 = _time.perf_counter()  # wall_seconds counts the steps, as before
             while clock.step < end:
                 quiet = self._quiet_steps(end, tuner, until, until_every)
                 calls = None
