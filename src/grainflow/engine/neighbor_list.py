@@ -166,23 +166,23 @@ class NeighborList:
             state.x, state.radius, state.frozen, state.body, cell_of, table, cell_start,
             order.astype(np.int64), geom.length, geom.periodic, margin, self._capacity,
             bool(np.all(order == np.arange(n))))
-        self._x_ref = state.x.copy()
-        self.index_rows(geom)
-        self.index_columns()
-        self._generation = state.generation
-        self.builds += 1
+        self._adopt_rows(state, geom)
 
-    def build_empty(self, state: ParticleState) -> None:
+    def build_empty(self, state: ParticleState, geom: ListGeometry) -> None:
         """A list of no pairs, for a simulation where nothing reads pairs (grains under
         gravity and drag only, against walls): only the displacement reference is taken,
         which still times the periodic wrap and the walls' choice of the particles to visit.
         Skips the cell sort and scan, which for two free-falling grains cost 0.6 ms a step."""
-        n = state.n
-        self.row_ptr = np.zeros(n + 1, dtype=np.int64)
+        self.row_ptr = np.zeros(state.n + 1, dtype=np.int64)
         self.nbr = np.zeros(0, dtype=np.int64)
-        self.row_wraps = np.zeros(n, dtype=np.uint8)
-        self.index_columns()
+        self._adopt_rows(state, geom)
+
+    def _adopt_rows(self, state: ParticleState, geom: ListGeometry) -> None:
+        """Finish a build of ``row_ptr`` and ``nbr``: the displacement reference, the row
+        flags, the transpose, and the particle set the list is current for."""
         self._x_ref = state.x.copy()
+        self.index_rows(geom)
+        self.index_columns()
         self._generation = state.generation
         self.builds += 1
 

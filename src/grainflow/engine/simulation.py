@@ -349,7 +349,7 @@ class Simulation:
             return
         nl.wrap(st, self.geometry)
         if not self._lists_pairs():  # lone grains: the wrap and the walls' cadence only
-            nl.build_empty(st)
+            nl.build_empty(st, self.geometry)
             self.rebuilds += 1
             return
         cells = nl.cell_order(st, self.geometry, self.reach())
