@@ -11,7 +11,16 @@ step of a small system 10-50 times slower; the physics does not depend on the th
 
 from __future__ import annotations
 
-import contextlib
+import os
+
+# The suite runs in two worker processes on two cores (pyproject's addopts): a test that
+# runs two numba threads then shares its cores with the other worker, and GNU OpenMP's
+# threads, which spin while they wait, make it many times slower (BENCHMARKS.md, "Shared
+# machine"). Passive waiting, set before numba loads the OpenMP library, avoids that; results
+# do not depend on it. A value set by the caller is kept.
+os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+
+import contextlib  # noqa: E402
 from pathlib import Path
 
 from dataclasses import dataclass

@@ -17,7 +17,7 @@ def _rings(st):
 
 
 @pytest.mark.parametrize("particles", ["dp_rough", "dp_smooth"])
-def test_dp_hopper_counts_and_reinserts_whole_rings(particles):
+def test_dp_hopper_counts_and_reinserts_whole_rings(particles, numba_one_thread):
     """Rings leave through the orifice and come back whole: each event is a ring (its body
     id, its preferred area), every ring keeps its 16 vertices together with its area, and no
     vertex is left below the reinsertion depth."""
@@ -119,7 +119,7 @@ def test_dp_study_plan_builds_valid_sweeps_and_a_report(tmp_path):
 
 
 @pytest.mark.parametrize("particles", ["dp_rough", "dp_smooth"])
-def test_dp_hopper_checkpoint_continues_bitwise(particles):
+def test_dp_hopper_checkpoint_continues_bitwise(particles, numba_one_thread):
     """A DP hopper restored from its state_dict (ring areas of ShapeForce, the reach of
     EdgeContacts, the events and lane counter of the ring reinsertion) continues exactly as
     the run that wrote it, through reinsertions."""

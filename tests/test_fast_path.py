@@ -123,6 +123,20 @@ def test_compiled_steps_are_bitwise_python_steps(case: str) -> None:
         assert np.sum((c.kind == WALL) & (c.j == 1)) >= 3  # the moving wall does push
 
 
+def test_an_updater_that_edits_in_place_keeps_the_step_calls(monkeypatch) -> None:
+    """The hopper's reinsertion (every 10 steps) relocates grains in place: the compiled loop
+    collects its step calls again only when the list or the particle set changes, with the
+    same result, bit for bit, as collecting them after every action."""
+    from grainflow.scenarios.hopper_reinsertion import HopperReinsertion
+
+    kept = _run(_hopper(2), 3000, True)
+    assert kept._fast_path.collections <= kept.rebuilds + 2
+    monkeypatch.setattr(HopperReinsertion, "keeps_step_calls", False)
+    renewed = _run(_hopper(2), 3000, True)
+    assert renewed._fast_path.collections >= 3000 // 10 // 2
+    _assert_same(kept, renewed)
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_contacts_read_between_compiled_runs_are_those_of_the_last_step(threads: int) -> None:
     """The compiled loop stores each pair's force only on the last step of a run of steps

@@ -411,3 +411,91 @@ def test_authors_study_plan_builds_valid_sweeps() -> None:
     assert fits["bounded"].beta == pytest.approx(1.58) and "beta" in fits["bounded"].at_bound
     assert fits["fixed"].beta == 1.5 and fits["fixed"].beta_fixed
     assert "fixed" not in three_fits(series, 2, 0.05)
+
+
+class _PlacementContext:
+    """What :meth:`HopperReinsertion._place` reads: a state, a generator and ``relocate``
+    (recorded, not applied)."""
+
+    def __init__(self, state: ParticleState, seed: int) -> None:
+        self.state = state
+        self.rng = np.random.default_rng(seed)
+        self.moved = None
+
+    def relocate(self, i, x, v=None, omega=None) -> None:
+        self.moved = (int(i), np.array(x, dtype=float), np.array(v, dtype=float))
+
+
+def _place_one_attempt_at_a_time(u: HopperReinsertion, ctx: _PlacementContext, i: int,
+                                 span: float, pool: np.ndarray, check_overlaps: bool) -> bool:
+    """The placement rule of the module docstring, drawing and testing one lateral position
+    at a time (what ``_place`` did before it evaluated attempts in batches)."""
+    st = ctx.state
+    ax = u.axis
+    lat = [a for a in range(u.dim) if a != ax]
+    r = float(st.radius[i])
+    idx = np.flatnonzero(pool)
+    for _ in range(u.max_attempts if idx.size else 0):
+        if u.dim == 2:
+            p = u.centre + ctx.rng.uniform(-span, span, 1)
+        else:
+            rho = span * np.sqrt(ctx.rng.random())
+            phi = 2.0 * np.pi * ctx.rng.random()
+            p = u.centre + rho * np.array([np.cos(phi), np.sin(phi)])
+        reach = r + st.radius[idx]
+        l2 = np.sum((st.x[np.ix_(idx, lat)] - p) ** 2, axis=1)
+        column = np.flatnonzero(l2 < reach**2)
+        if column.size == 0:
+            continue
+        heights = st.x[idx[column], ax] + np.sqrt(reach[column] ** 2 - l2[column])
+        k = int(np.argmax(heights))
+        j = idx[column[k]]
+        target = np.zeros(st.x.shape[1])
+        target[lat] = p
+        target[ax] = heights[k]
+        if check_overlaps:
+            others = np.flatnonzero((np.arange(st.n) != i) & (np.arange(st.n) != j))
+            gap = np.linalg.norm(st.x[others] - target, axis=1) - (r + st.radius[others])
+            if np.any(gap < 0.0):
+                continue
+        ctx.relocate(i, target, v=st.v[j])
+        return True
+    return False
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("check_overlaps", [False, True])
+def test_batched_placement_is_the_one_at_a_time_rule(dim: int, check_overlaps: bool) -> None:
+    """Placement attempts are evaluated in batches; the grain goes where trying one position
+    at a time puts it, and the generator ends where single draws leave it, so runs do not
+    change by a bit. The pool is a sparse random pile, so that many attempts fail (empty
+    columns, and with the overlap test, grains above the partner)."""
+    rng = np.random.default_rng(7 + dim)
+    n = 120
+    width = 12.0
+    hi = [width, width, 20.0] if dim == 3 else [width, 20.0]
+    st = ParticleState(dim, Box(np.zeros(dim), np.array(hi), (False,) * dim))
+    x = rng.uniform(0.6, width - 0.6, (n, 3))
+    x[:, dim - 1] = rng.uniform(1.0, 15.0, n)
+    if dim == 2:
+        x[:, 2] = 0.0
+    st.add_particles(x[:, :dim], rng.uniform(0.4, 0.6, n), density=1.0)
+    st.v[:] = rng.normal(size=(n, 3)) * (1.0 if dim == 3 else np.array([1.0, 1.0, 0.0]))
+    centre = np.full(dim - 1, 0.5 * width)
+    for trial in range(6):
+        u = HopperReinsertion(dim, 0.5, centre, width, max_attempts=300)
+        i = int(rng.integers(n))
+        pool = st.x[:, dim - 1] > 0.5
+        pool[i] = False
+        pool &= rng.random(n) < 0.5  # a "bulk" subset: many columns without a partner
+        span = 0.5 * width - float(st.radius[i])
+        batched, single = _PlacementContext(st, 100 + trial), _PlacementContext(st, 100 + trial)
+        found = u._place(batched, i, span, pool, check_overlaps=check_overlaps)
+        expected = _place_one_attempt_at_a_time(u, single, i, span, pool, check_overlaps)
+        assert found == expected
+        if found:
+            assert batched.moved[0] == single.moved[0]
+            assert np.array_equal(batched.moved[1], single.moved[1])
+            assert np.array_equal(batched.moved[2], single.moved[2])
+        assert batched.rng.bit_generator.state == single.rng.bit_generator.state
+        assert batched.rng.random() == single.rng.random()

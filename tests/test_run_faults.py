@@ -9,6 +9,7 @@ import json
 import math
 import os
 import signal
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -517,6 +518,46 @@ def test_an_import_the_interrupt_broke_is_reported_as_the_interrupt(
     else:
         with pytest.raises(ImportError, match="devicearray"):
             program.main()
+
+
+def test_an_interrupt_python_could_not_raise_is_quiet_and_reported(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """An interrupt that lands in a callback of Python's import machinery (a module lock's
+    weak-reference callback: seen when the test above ran beside another process) cannot be
+    raised there: Python prints it as "Exception ignored" with a traceback and goes on. The
+    start-up hook keeps it quiet, and the program reports it, exit 130, once the imports
+    are done, instead of running the command."""
+    import gc
+    import weakref
+
+    import grainflow.__main__ as program
+    import grainflow.cli as cli
+    from grainflow import interrupt
+
+    class Lock:
+        pass
+
+    seen: list[type] = []  # what the hook before grainflow's is given
+    monkeypatch.setattr(interrupt, "_received", [])
+    monkeypatch.setattr(sys, "unraisablehook", lambda info: seen.append(info.exc_type))
+    monkeypatch.setattr(signal, "signal", lambda signum, handler: None)  # keep pytest's own
+    interrupt.install()
+    lock = Lock()
+    ref = weakref.ref(lock, lambda _: interrupt._handler(signal.SIGINT, None))
+    del lock  # the callback raises KeyboardInterrupt where Python cannot raise it
+    gc.collect()
+    assert ref() is None
+    assert seen == [] and interrupt.received()
+    monkeypatch.setattr(interrupt, "install", lambda: None)
+    monkeypatch.setattr(cli, "entry", lambda: pytest.fail("the command ran"))
+    with pytest.raises(SystemExit) as exit_:
+        program.main()
+    assert exit_.value.code == 130
+    assert capsys.readouterr().err == "error: interrupted\n"
+    # any other exception Python could not raise still goes to the hook before
+    weakref.ref(Lock(), lambda _: 1 / 0)
+    gc.collect()
+    assert seen == [ZeroDivisionError]
 
 
 def test_a_verb_whose_import_the_interrupt_broke_exits_130(

@@ -14,6 +14,8 @@ def main() -> None:
     try:
         from grainflow.cli import entry
 
+        if interrupt.received():  # it landed where Python could not raise it (interrupt.py)
+            raise KeyboardInterrupt
         entry()
     except KeyboardInterrupt:  # before entry() handles it (importing, or just after)
         _interrupted()

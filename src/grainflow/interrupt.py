@@ -4,10 +4,16 @@ A signal handler raises :class:`KeyboardInterrupt` wherever Python happens to be
 C extension's import (numba's, for one) that extension may replace it with its own
 ``ImportError``. :func:`install` therefore records that an interrupt arrived, so that the
 program reports "interrupted" (exit 130) whatever exception the interrupted import left.
+Where Python cannot raise at all (the interrupt lands in a callback of its import machinery,
+e.g. a module lock's weak-reference callback), it prints the exception as "ignored" with a
+traceback and goes on: :func:`install` keeps that quiet for the interrupts it recorded, and
+the program reports them once the imports are done.
 Runs replace these handlers with their own (checkpoint, then exit 130 / 143)."""
 
 import signal
+import sys
 from types import FrameType
+from typing import Any
 
 _received: list[int] = []
 
@@ -17,10 +23,22 @@ def _handler(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
 
+def _unraisable(previous: Any) -> Any:
+    """A ``sys.unraisablehook`` silent for a recorded interrupt, ``previous`` otherwise."""
+
+    def hook(info: Any) -> None:
+        if _received and isinstance(info.exc_value, KeyboardInterrupt):
+            return
+        previous(info)
+
+    return hook
+
+
 def install() -> None:
     """Make SIGINT and SIGTERM raise :class:`KeyboardInterrupt`, and remember them."""
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _handler)
+    sys.unraisablehook = _unraisable(sys.unraisablehook)
 
 
 def received() -> bool:

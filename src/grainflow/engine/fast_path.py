@@ -134,10 +134,13 @@ class FastPath:
         self._serial = False  # the step calls were collected for one thread
         #: Steps taken in the compiled loop so far (for tests and profiles).
         self.steps_done = 0
+        #: Times the step calls were collected (for tests and profiles).
+        self.collections = 0
 
     def forget(self) -> None:
         """Drop the step calls: something an operation reads may have been replaced (a run
-        starts, an updater acted)."""
+        starts, an updater acted that does not say it
+        :attr:`~grainflow.engine.operations.Updater.keeps_step_calls`)."""
         self._calls_key = None
 
     def calls(self, sim: Any) -> tuple[StepCall, StepCall, list[StepCall]] | None:
@@ -150,6 +153,7 @@ class FastPath:
             _serial["now"] = self._serial = threads == 1
             self._calls = self._collect(sim)
             self._calls_key = key
+            self.collections += 1
         return self._calls
 
     def _collect(self, sim: Any) -> tuple[StepCall, StepCall, list[StepCall]] | None:

@@ -279,6 +279,13 @@ class Integrator(ABC):
 class Updater(ABC):
     """An operation that may insert, delete or move particles, every ``every`` steps."""
 
+    #: True for an updater that changes the simulation only through the context's particle
+    #: edits and in place (e.g. :meth:`UpdateContext.relocate`): it replaces no array and no
+    #: parameter an operation holds, so the compiled step loop keeps its step calls after
+    #: it acts (an insertion or deletion still renews them: it changes the particle set).
+    #: False (the default, and for plain functions) makes the loop collect them again.
+    keeps_step_calls: bool = False
+
     @abstractmethod
     def update(self, ctx: UpdateContext) -> None:
         """Act on the system (after the step's integration)."""

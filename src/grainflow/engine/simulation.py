@@ -486,7 +486,8 @@ class Simulation:
         for u in self.updaters:
             if clock.step % u.every == 0:
                 u.action(self._update_context)
-                self._fast_path.forget()
+                if not getattr(u.owner, "keeps_step_calls", False):
+                    self._fast_path.forget()
         if not self.forces_current:
             self.compute_forces(update=False)
         if self.check_every and clock.step % self.check_every == 0:

@@ -105,6 +105,9 @@ class DeleteRegion(Updater):
     it (``outside=False``: a sink). ``types`` restricts it to some particle types; frozen
     particles are never removed. ``removed`` counts the deleted grains."""
 
+    #: It only removes particles (which renews the compiled step loop's calls anyway).
+    keeps_step_calls = True
+
     def __init__(self, region: Region, *, outside: bool = True,
                  types: Sequence[int] | None = None) -> None:
         self.region = region
