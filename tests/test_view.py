@@ -453,3 +453,31 @@ def test_movie_progress_plain_lines(run2d, tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     assert "frame 0/2" in out and any(line.startswith("frame 2/2 (100.0%)  eta") for line in out)
     assert any(line.startswith("scan 1/2") for line in out)
+
+
+@pytest.mark.parametrize("with_walls", [False, True])
+def test_pictures_on_the_kept_background_are_those_of_whole_figures(run2d, with_walls):
+    """After the first picture the 2D painter draws only the grains, walls and title over a
+    kept background: each picture is, pixel for pixel, the whole figure drawn again (as
+    every picture was before); a frame with rings is drawn whole."""
+    from matplotlib.colors import Normalize
+
+    source = mv.open_frames(run2d)
+    frames = [source[k] for k in range(len(source))]
+    lo, hi = mv.frame_limits(frames[0])
+    lo, hi = lo - 1.0, hi + 1.0
+    walls = [((lo[0] + 0.5, lo[1] + 0.5), (hi[0] - 0.5, lo[1] + 1.5))] if with_walls else None
+    speeds = [np.linalg.norm(f.velocity, axis=1) for f in frames]
+    scale = mv.ColourScale(mv.colormaps["viridis"], Normalize(0.0, max(s.max() for s in speeds)),
+                           "speed")
+    kept = mv._MatplotlibPainter((320, 240), (lo, hi), scale, "xz", walls)
+    whole = mv._MatplotlibPainter((320, 240), (lo, hi), scale, "xz", walls)
+    whole._keep_background = lambda ax, grains: None  # every picture drawn whole
+    pictures = [kept.paint(f, s) for f, s in zip(frames, speeds)]
+    assert kept._scene is not None and whole._scene is None
+    assert len({p.tobytes() for p in pictures}) == len(frames)  # grains and title move
+    for frame, values, picture in zip(frames, speeds, pictures):
+        assert np.array_equal(picture, whole.paint(frame, values))
+    rings = ring_frame(0)
+    kept.paint(rings, np.zeros(rings.n))
+    assert kept._scene is None  # drawn whole

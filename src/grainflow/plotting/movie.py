@@ -46,7 +46,8 @@ from matplotlib.ticker import FormatStrFormatter
 from grainflow.frame import Frame
 from grainflow.plotting.render3d import QUALITY, probe_ovito
 from grainflow.plotting.snapshot import (COLOR_BY, Segment, colour_values as snapshot_values,
-                                         draw_frame, figure_size, frame_limits, plot_axes)
+                                         disk_layout, draw_frame, figure_size, frame_limits,
+                                         frame_title, plot_axes, ring_index)
 from grainflow.progress import ItemProgress, make_item_progress
 
 __all__ = ["MOVIE_COLOR_BY", "MOVIE_SUFFIXES", "ColourScale", "FrameSource", "GifWriter",
@@ -423,6 +424,16 @@ class _Painter(Protocol):
     def close(self) -> None: ...
 
 
+@dataclass
+class _Scene:
+    """A kept picture background and the artists drawn over it (:class:`_MatplotlibPainter`)."""
+
+    axes: Any
+    grains: Any
+    overlays: list[Any]
+    background: Any
+
+
 class _MatplotlibPainter:
     """2D frames (or 3D ones projected on ``plane``) drawn by snapshot's :func:`draw_frame`
     into one figure of ``size`` pixels, with fixed ``limits`` and colour ``scale``."""
@@ -440,8 +451,15 @@ class _MatplotlibPainter:
         #: colour scale are fixed over the movie, so later pictures reuse the layout rather
         #: than solve it again (half the cost of a picture).
         self._positions: tuple[Any, Any] | None = None
+        #: Once a frame without rings is drawn: everything but its grains, title and walls,
+        #: rendered once (:meth:`_keep_background`), and those artists, which later frames
+        #: without rings update and draw over it (about 10x faster than a whole figure).
+        self._scene: _Scene | None = None
 
     def paint(self, frame: Frame, values: np.ndarray) -> np.ndarray:
+        if self._scene is not None and not ring_index(frame).size:
+            return self._repaint(frame, values)
+        self._scene = None
         self.figure.clear()
         with rc_context({"font.size": self.font_size}):
             if self._positions is None:
@@ -464,8 +482,47 @@ class _MatplotlibPainter:
             if self._positions is None:
                 self._positions = (ax.get_position(), bar.ax.get_position())
                 self.figure.set_layout_engine("none")
-        rgba = np.asarray(self.figure.canvas.buffer_rgba())
-        return _fit(rgba[..., :3], self.size)
+            rgba = _fit(np.asarray(self.figure.canvas.buffer_rgba())[..., :3], self.size)
+            if not ring_index(frame).size:  # (in the same font size: tick labels depend on it)
+                self._keep_background(ax, drawn.mappable)
+        return rgba
+
+    def _keep_background(self, ax: Any, grains: Any) -> None:
+        """Render the figure without the grains, the walls drawn over them and the title,
+        and keep it with those artists for :meth:`_repaint`."""
+        overlays = [c for c in ax.collections if c is not grains]
+        moving = [grains, *overlays, ax.title]
+        title_at = ax.title.get_position()  # a draw places a hidden title elsewhere
+        for artist in moving:
+            artist.set_visible(False)
+        canvas = self.figure.canvas
+        canvas.draw()
+        background = canvas.copy_from_bbox(self.figure.bbox)
+        for artist in moving:
+            artist.set_visible(True)
+        ax.title.set_position(title_at)
+        self._scene = _Scene(ax, grains, overlays, background)
+
+    def _repaint(self, frame: Frame, values: np.ndarray) -> np.ndarray:
+        """The picture of ``frame`` (no rings) on the kept background: the grains' centres,
+        sizes and colours and the title updated, drawn as :func:`draw_frame` orders them
+        (grains, then walls)."""
+        scene = self._scene
+        assert scene is not None
+        order, centres, diameters = disk_layout(frame, plot_axes(frame.dim, self.plane),
+                                                ring_index(frame))
+        grains = scene.grains
+        grains.set_offsets(centres)
+        grains.set_widths(diameters)
+        grains.set_heights(diameters)
+        grains.set_angles(np.zeros(len(order)))
+        grains.set_array(values[order])
+        scene.axes.title.set_text(frame_title(frame))
+        canvas = self.figure.canvas
+        canvas.restore_region(scene.background)
+        for artist in (grains, *scene.overlays, scene.axes.title):
+            scene.axes.draw_artist(artist)
+        return _fit(np.asarray(canvas.buffer_rgba())[..., :3], self.size)
 
     def close(self) -> None:
         self.figure.clear()

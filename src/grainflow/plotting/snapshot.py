@@ -116,12 +116,9 @@ def draw_frame(
     """
     axes = plot_axes(frame.dim, plane)
     values, default_label = colour_values(frame, color_by, axes)
-    index = frame_rings(frame)[1] if frame.dim == 2 else np.zeros((0, 0), dtype=np.int64)
+    index = ring_index(frame)
     outlines = ring_outlines(frame, index)
-    order = _draw_order(frame, axes)
-    order = order[~np.isin(order, index)]  # ring vertices are drawn with their rings
-    centres = frame.position[order][:, axes]
-    diameters = 2.0 * frame.radius[order]
+    order, centres, diameters = disk_layout(frame, axes, index)
 
     lo, hi = limits if limits is not None else _limits(frame, axes, walls, outlines)
     ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), aspect="equal")
@@ -139,10 +136,29 @@ def draw_frame(
     names = "xyz"
     ax.set_xlabel(names[axes[0]])
     ax.set_ylabel(names[axes[1]])
-    rings = f", {len(index)} rings" if len(index) else ""
-    ax.set_title(title if title is not None else
-                 f"step {frame.step}, t = {frame.time:.6g}, N = {frame.n}{rings}")
+    ax.set_title(title if title is not None else frame_title(frame, len(index)))
     return Drawn(grains, label if label is not None else default_label)
+
+
+def ring_index(frame: Frame) -> np.ndarray:
+    """The vertex indices of each deformable ring of a 2D frame, one row per ring (none in
+    3D)."""
+    return frame_rings(frame)[1] if frame.dim == 2 else np.zeros((0, 0), dtype=np.int64)
+
+
+def disk_layout(frame: Frame, axes: list[int], index: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The grains drawn as disks, from farthest to nearest (ring vertices, ``index``, are
+    drawn with their rings): their indices, plotted centres and diameters."""
+    order = _draw_order(frame, axes)
+    order = order[~np.isin(order, index)]
+    return order, frame.position[order][:, axes], 2.0 * frame.radius[order]
+
+
+def frame_title(frame: Frame, rings: int = 0) -> str:
+    """The default title: step, time, number of particles (and of rings)."""
+    counted = f", {rings} rings" if rings else ""
+    return f"step {frame.step}, t = {frame.time:.6g}, N = {frame.n}{counted}"
 
 
 def frame_limits(frame: Frame, plane: str = "xz", walls: Sequence[Segment] | None = None
