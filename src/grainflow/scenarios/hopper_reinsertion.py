@@ -78,6 +78,7 @@ from typing import Any, Callable
 import numpy as np
 
 from grainflow.engine.operations import ForceContext, Updater, UpdateContext
+from grainflow.kernels.placement import column_landings
 
 
 #: Name of the per-particle flag "crossed the orifice, not yet reinserted".
@@ -297,20 +298,19 @@ class HopperReinsertion(Updater):
         position that overlaps any other grain is refused; for a pool of all grains the
         column's highest grain is above every other, so there is nothing to check.
 
-        The attempts are evaluated in batches (:data:`PLACE_BATCHES`) with array operations,
-        but decided one after the other as if drawn singly: the first attempt of a batch that
-        succeeds wins, and the random generator is then left exactly where single draws up
-        to that attempt would leave it, so the run is bitwise the same as with one attempt
-        at a time. (A bulk partner is usually buried under grains still settling on the
-        pile: in the demo hopper a placement takes ~170 attempts, which one by one cost
-        ~35 % of a steady-state step.)"""
+        The attempts are evaluated in batches (:data:`PLACE_BATCHES`) by a compiled kernel
+        (:func:`~grainflow.kernels.placement.column_landings`), but decided one after the
+        other as if drawn singly: the first attempt of a batch that succeeds wins, and the
+        random generator is then left exactly where single draws up to that attempt would
+        leave it, so the run is bitwise the same as with one attempt at a time. (A bulk
+        partner is usually buried under grains still settling on the pile: in the demo
+        hopper a placement takes ~170 attempts, which one by one in numpy cost ~35 % of a
+        steady-state step.)"""
         st = ctx.state
         ax = self.axis
-        lat = [a for a in range(self.dim) if a != ax]
+        lat = np.array([a for a in range(self.dim) if a != ax], dtype=np.int64)
         r = float(st.radius[i])
         idx = np.flatnonzero(pool)
-        lateral = st.x[np.ix_(idx, lat)]
-        reach = r + st.radius[idx]
         left = self.max_attempts if idx.size else 0
         batches = iter(PLACE_BATCHES)
         size = next(batches)
@@ -320,51 +320,23 @@ class HopperReinsertion(Updater):
             left -= k
             saved = ctx.rng.bit_generator.state
             p = self._lateral_samples(ctx.rng, span, k)
-            l2 = np.sum((lateral[None, :, :] - p[:, None, :]) ** 2, axis=2)
-            in_column = l2 < reach**2
-            tried = np.flatnonzero(in_column.any(axis=1))
-            if tried.size == 0:
-                continue
-            heights = np.where(in_column[tried],
-                               st.x[idx, ax] + np.sqrt(np.where(in_column[tried],
-                                                                reach**2 - l2[tried], 0.0)),
-                               -np.inf)
-            best = np.argmax(heights, axis=1)
-            partners = idx[best]
-            targets = np.zeros((tried.size, st.x.shape[1]))
-            targets[:, lat] = p[tried]
-            targets[:, ax] = heights[np.arange(tried.size), best]
-            blocked = (self._overlapping(st, targets, r, i, partners) if check_overlaps
-                       else np.zeros(tried.size, dtype=bool))
-            for q in range(tried.size):
-                if self.inside is not None and not self.inside(targets[q], r):
+            partners, heights, blocked = column_landings(
+                np.ascontiguousarray(p), idx, lat, ax, st.x, st.radius, i, r, check_overlaps,
+                self.inside is None)
+            for q in np.flatnonzero(partners >= 0):
+                target = np.zeros(st.x.shape[1])
+                target[lat] = p[q]
+                target[ax] = heights[q]
+                if self.inside is not None and not self.inside(target, r):
                     continue  # past a sloped wall
                 if blocked[q]:
                     continue  # a grain still raining onto the bulk partner is in the way
                 ctx.rng.bit_generator.state = saved
-                self._lateral_samples(ctx.rng, span, int(tried[q]) + 1)  # the draws used
+                self._lateral_samples(ctx.rng, span, int(q) + 1)  # the draws used
                 j = int(partners[q])
-                ctx.relocate(i, targets[q], v=st.v[j], omega=np.zeros((1, 3)))
+                ctx.relocate(i, target, v=st.v[j], omega=np.zeros((1, 3)))
                 return True
         return False
-
-    def _overlapping(self, st: Any, targets: np.ndarray, r: float, i: int,
-                     partners: np.ndarray) -> np.ndarray:
-        """Per row of ``targets``, whether grain ``i`` (radius ``r``) there would overlap any
-        grain but its partner (which it touches by construction). Only grains within
-        ``r + r_max`` of some target along the vertical axis, widened by a relative 1e-9,
-        can (a superset of the overlapping ones, so the answer is exactly that of testing
-        every grain); the distances are computed for those alone."""
-        ax = self.axis
-        reach = (r + float(st.radius.max())) * (1.0 + 1e-9)
-        h = st.x[:, ax]
-        near = np.flatnonzero((h >= targets[:, ax].min() - reach)
-                              & (h <= targets[:, ax].max() + reach))
-        near = near[near != i]
-        gap = (np.linalg.norm(st.x[near][None, :, :] - targets[:, None, :], axis=2)
-               - (r + st.radius[near]))
-        gap[near[None, :] == partners[:, None]] = np.inf
-        return np.any(gap < 0.0, axis=1)
 
     # ------------------------------------------------------------------- lanes
     def lane_positions(self, span: float) -> np.ndarray:
