@@ -10,6 +10,7 @@ contact history follows through :meth:`PairInteraction.reindex`.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,6 +18,23 @@ import numpy as np
 from grainflow.kernels import neighbors as nk
 from grainflow.kernels.specialize import for_threads_now
 from grainflow.state import ParticleState
+
+
+@functools.lru_cache(maxsize=64)
+def _stencil(dim: int, short: tuple[int, int, int]) -> np.ndarray:
+    """Offsets (Q, 3) of the neighbour cells of a cell, itself included: -1, 0, 1 along each
+    of the ``dim`` axes, or every cell of a periodic axis holding fewer than three
+    (``short[a]`` cells; 0: not short). Shared between builds: not to be written to."""
+    per_axis = []
+    for a in range(3):
+        if a >= dim:
+            per_axis.append([0])
+        elif short[a]:
+            per_axis.append(list(range(short[a])))
+        else:
+            per_axis.append([-1, 0, 1])
+    grid = np.array(np.meshgrid(*per_axis, indexing="ij")).reshape(3, -1).T
+    return np.ascontiguousarray(grid, dtype=np.int64)
 
 
 @dataclass
@@ -136,16 +154,9 @@ class NeighborList:
 
     @staticmethod
     def _offsets(dim: int, periodic: np.ndarray, ncell: np.ndarray) -> np.ndarray:
-        per_axis = []
-        for a in range(3):
-            if a >= dim:
-                per_axis.append([0])
-            elif periodic[a] and ncell[a] < 3:
-                per_axis.append(list(range(int(ncell[a]))))
-            else:
-                per_axis.append([-1, 0, 1])
-        grid = np.array(np.meshgrid(*per_axis, indexing="ij")).reshape(3, -1).T
-        return np.ascontiguousarray(grid, dtype=np.int64)
+        """The cell stencil (see :func:`_stencil`; built once per kind of box)."""
+        short = tuple(int(ncell[a]) if periodic[a] and ncell[a] < 3 else 0 for a in range(3))
+        return _stencil(dim, short)
 
     def build(self, state: ParticleState, geom: ListGeometry, cells) -> None:
         """Build the half list and its transpose from :meth:`cell_order`'s result."""
