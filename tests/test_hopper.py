@@ -499,3 +499,29 @@ def test_batched_placement_is_the_one_at_a_time_rule(dim: int, check_overlaps: b
             assert np.array_equal(batched.moved[2], single.moved[2])
         assert batched.rng.bit_generator.state == single.rng.bit_generator.state
         assert batched.rng.random() == single.rng.random()
+
+
+def test_the_quick_check_finds_work_exactly_when_the_full_check_does() -> None:
+    """``reinsertion_pending`` (which lets a check that finds nothing return at once) is
+    true exactly when the update's own arrays of crossed or due grains are not empty, on
+    random flags and heights, grains on the thresholds included."""
+    from grainflow.kernels.placement import reinsertion_pending
+
+    rng = np.random.default_rng(3)
+    orifice, depth = 2.0, 2.5
+    for trial in range(300):
+        n = int(rng.integers(1, 12))
+        radius = rng.choice([0.4, 0.5, 0.7], n)
+        flag = rng.choice([0, 1], n).astype(np.int8)
+        x = np.zeros((n, 3))
+        x[:, 1] = rng.uniform(-3.0, 6.0, n)
+        on_edge = rng.random(n) < 0.3  # exactly on the plane or the reinsertion depth
+        x[on_edge, 1] = np.where(rng.random(on_edge.sum()) < 0.5, orifice,
+                                 orifice - depth * 2.0 * radius[on_edge])
+        h = x[:, 1]
+        crossed = (flag == 0) & (h < orifice)
+        after = flag.copy()
+        after[crossed] = 1
+        due = (after == 1) & (h < orifice - depth * 2.0 * radius)
+        assert reinsertion_pending(flag, x, 1, orifice, depth * 2.0, radius) == bool(
+            crossed.any() or due.any())

@@ -1,6 +1,6 @@
-"""Where a reinserted grain lands on a pile (SPEC M8; seed 003, Sec. 2.4): the compiled
-evaluation of the lateral attempts of
-:meth:`grainflow.scenarios.hopper_reinsertion.HopperReinsertion._place`."""
+"""Compiled parts of the hopper reinsertion (SPEC M8; seed 003, Sec. 2.4;
+:class:`grainflow.scenarios.hopper_reinsertion.HopperReinsertion`): whether a check has
+anything to do, and where a reinserted grain lands on the pile."""
 
 from __future__ import annotations
 
@@ -66,3 +66,19 @@ def column_landings(samples, pool, lateral_axes, up, x, radius, i, r, check_over
         if stop_at_first and not blocked[q]:
             break
     return partner, height, blocked
+
+
+@njit(cache=True)
+def reinsertion_pending(flag, x, up, orifice_height, depth_diameters, radius):
+    """Whether a reinsertion check has anything to do: some grain not flagged yet
+    (``flag == 0``) is below the orifice plane ``orifice_height`` along axis ``up``, or some
+    flagged one (``flag == 1``) is below ``orifice_height - depth_diameters * r_i``
+    (``depth_diameters`` = 2 x the depth in diameters; the same arithmetic as the check's own
+    array form). Most checks (every 10 steps in the seed's hoppers) find nothing."""
+    for i in range(x.shape[0]):
+        h = x[i, up]
+        if flag[i] == 0 and h < orifice_height:
+            return True
+        if flag[i] == 1 and h < orifice_height - depth_diameters * radius[i]:
+            return True
+    return False

@@ -78,7 +78,7 @@ from typing import Any, Callable
 import numpy as np
 
 from grainflow.engine.operations import ForceContext, Updater, UpdateContext
-from grainflow.kernels.placement import column_landings
+from grainflow.kernels.placement import column_landings, reinsertion_pending
 
 
 #: Name of the per-particle flag "crossed the orifice, not yet reinserted".
@@ -226,6 +226,9 @@ class HopperReinsertion(Updater):
         if OUT_FLAG not in st.arrays:
             self.setup_state(ctx)
         out = st.arrays[OUT_FLAG]
+        if not reinsertion_pending(out, st.x, self.axis, self.orifice_height,
+                                   self.depth * 2.0, st.radius):
+            return  # nothing crossed, nothing due (the arrays below would be empty)
         h = st.x[:, self.axis]
         crossed = np.flatnonzero((out == 0) & (h < self.orifice_height))
         if crossed.size:
