@@ -167,3 +167,51 @@ def test_a_simulation_keeps_its_tuner() -> None:
     tuner = sim._tuner
     sim.run(20)
     assert sim._tuner is tuner and sim.thread_log[-1][0] <= 40
+
+
+def test_cpu_load_reads_idle_cores_from_proc_stat(tmp_path) -> None:
+    """Idle cores between two readings: (idle + iowait) / all time x cores; None when the
+    file cannot be read or time did not advance."""
+    from grainflow.engine.threads import CpuLoad
+
+    stat = tmp_path / "stat"
+
+    def write(user: int, idle: int, iowait: int) -> None:
+        stat.write_text(f"cpu  {user} 0 0 {idle} {iowait} 0 0 0 0 0\n"
+                        "cpu0 0 0 0 0 0 0 0 0 0 0\ncpu1 0 0 0 0 0 0 0 0 0 0\nintr 1 2\n")
+
+    write(1000, 1000, 0)
+    load = CpuLoad(str(stat))
+    write(1150, 1040, 10)  # 200 ticks: 50 idle -> a quarter of 2 cores idle
+    assert load.idle_cores() == pytest.approx(0.5)
+    assert load.idle_cores() is None  # no time passed since
+    assert CpuLoad(str(tmp_path / "missing")).idle_cores() is None
+    assert CpuLoad().idle_cores(0.01) is None or 0.0 <= CpuLoad().idle_cores(0.01) <= 1e4
+
+
+def test_auto_starts_and_stays_on_one_thread_while_the_machine_is_busy() -> None:
+    """With the machine's cores busy (another process), a large run starts on one thread and
+    tries two only once a core is idle again; an idle machine starts on two."""
+    busy_until = 60.0
+    machine = FakeMachine(lambda t, now: 1e-7 * ((5.0 if t == 2 else 1.0) if now < busy_until
+                                                 else (1 / 1.8 if t == 2 else 1.0)))
+
+    def idle(wait: float) -> float:
+        # beside the run's own thread: no idle core while the other process runs
+        return 0.05 if machine.now < busy_until else 1.0
+
+    tuner = ThreadTuner(2, clock=machine.clock, set_threads=machine.set_threads, idle=idle)
+    tuner.begin(0, 32000, 0)
+    assert machine.threads == 1
+    steps = machine.run(tuner, 32000, 120.0)
+    two = [step for step, threads, _ in tuner.log if threads == 2]
+    assert two and machine_time(tuner, two[0]) > busy_until  # no trial while busy
+    assert machine.threads == 2 and share(steps, 2) > 0.4
+    idle_machine = ThreadTuner(2, clock=machine.clock, set_threads=machine.set_threads,
+                               idle=lambda wait: 1.9)
+    idle_machine.begin(0, 32000, 0)
+    assert machine.threads == 2
+    unknown = ThreadTuner(2, clock=machine.clock, set_threads=machine.set_threads,
+                          idle=lambda wait: None)
+    unknown.begin(0, 32000, 0)
+    assert machine.threads == 2  # unknown: as before

@@ -48,7 +48,7 @@ from grainflow.engine.operations import (Clock, ContactRows, Force, ForceContext
                                          Observer, ObserverContext, TimeScale, Updater,
                                          UpdateContext)
 from grainflow.engine.pair import PairInteraction
-from grainflow.engine.threads import Threads, ThreadTuner, check_threads
+from grainflow.engine.threads import CpuLoad, Threads, ThreadTuner, check_threads
 from grainflow.frame import PAIR, WALL, Contacts, Frame
 from grainflow.kernels.health import ARRAY_OF_CODE, HEALTHY, TOO_FAST, scan_state
 from grainflow.kernels.pair_loop import max_pair_overlap, max_relative_overlap
@@ -411,7 +411,7 @@ class Simulation:
         if self._threads == "auto":
             tuner = self._tuner
             if tuner is None or tuner.cap != before:
-                tuner = self._tuner = ThreadTuner(before, log=self.thread_log)
+                tuner = self._tuner = ThreadTuner(before, log=self.thread_log, idle=CpuLoad().idle_cores)
             tuner.set_threads(tuner.count_to_go_on() if tuner.started
                               else tuner.first_count(self.state.n))
         else:

@@ -33,6 +33,13 @@ measures:
   within :attr:`ThreadTuner.change_wait_s` seconds (not at once: on a loaded machine short
   windows are noisy, and every trial of a count that loses costs time).
 
+- where the machine says how busy its cores are (Linux: ``/proc/stat``, read by
+  :class:`CpuLoad`), a run that would start on ``cap`` threads starts on one when other
+  processes leave fewer than ``cap`` cores idle (sampled for :data:`START_SAMPLE_S` before
+  the first step), and a trial of ``cap`` threads waits while the window just ended left
+  fewer than ``cap - 1`` cores idle beside the run's own thread: under load those trials
+  were most of what ``"auto"`` lost against one thread in short runs.
+
 The simulation keeps its tuner from run to run (a loop of short runs does not start over
 on one thread each time) and restores numba's thread count when each run ends.
 """
@@ -41,7 +48,8 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Literal, Union
+from pathlib import Path
+from typing import Callable, Literal, Optional, Union
 
 import numba
 
@@ -53,6 +61,48 @@ SERIAL_BELOW = 4000
 #: Judged windows a trial runs at least (after one that wakes the threads up).
 TRIAL_WINDOWS = 3
 
+#: Seconds over which the machine's idle cores are sampled before a run's first step.
+START_SAMPLE_S = 0.02
+
+#: Cores a count must find idle, below the count itself: half a core of other work beside
+#: the run is tolerated.
+IDLE_SLACK = 0.5
+
+
+class CpuLoad:
+    """Idle cores of the whole machine between two readings of ``/proc/stat`` (Linux; the
+    first ``cpu`` line: idle and iowait against all time, over every ``cpuN`` line's core;
+    time stolen by a hypervisor counts as busy). :meth:`idle_cores` is None where the file
+    cannot be read."""
+
+    def __init__(self, path: str = "/proc/stat") -> None:
+        self._path = Path(path)
+        self._last = self._read()
+
+    def _read(self) -> tuple[float, float, int] | None:
+        """(all time, idle time, cores) so far, or None."""
+        try:
+            lines = self._path.read_text().splitlines()
+            fields = [float(v) for v in lines[0].split()[1:9]]
+            cores = sum(1 for line in lines if line.startswith("cpu") and line[3:4].isdigit())
+        except (OSError, IndexError, ValueError):
+            return None
+        if len(fields) < 5 or cores < 1:
+            return None
+        return sum(fields), fields[3] + fields[4], cores
+
+    def idle_cores(self, wait: float = 0.0) -> float | None:
+        """Cores idle on average since the previous call (or since this object was made),
+        after sleeping ``wait`` seconds; None if unknown."""
+        if wait > 0.0:
+            self._last = self._read()
+            time.sleep(wait)
+        now, last = self._read(), self._last
+        self._last = now
+        if now is None or last is None or now[0] <= last[0]:
+            return None
+        return (now[1] - last[1]) / (now[0] - last[0]) * now[2]
+
 
 def check_threads(threads: object) -> Threads:
     """``threads`` as given, if it is ``"auto"`` or a count from 1 to numba's maximum."""
@@ -63,6 +113,12 @@ def check_threads(threads: object) -> Threads:
         raise ValueError(f"threads: {threads!r} is not valid; expected 'auto' or a count from 1 "
                          f"to {available} (NUMBA_NUM_THREADS)")
     return threads
+
+
+def _room_for(count: int, idle: float | None, own: float) -> bool:
+    """Whether ``count`` threads would find their cores: ``idle`` cores (None: unknown, then
+    yes) plus the ``own`` ones the run holds now, at least ``count - IDLE_SLACK``."""
+    return idle is None or idle + own >= count - IDLE_SLACK
 
 
 @dataclass
@@ -88,6 +144,9 @@ class ThreadTuner:
     change_wait_s: float = 2.0
     clock: Callable[[], float] = time.perf_counter
     set_threads: Callable[[int], None] = numba.set_num_threads
+    #: ``idle(wait)``: cores idle machine-wide since its previous call, after sleeping
+    #: ``wait`` seconds (:meth:`CpuLoad.idle_cores`), or None; no function: never asked.
+    idle: Optional[Callable[[float], Optional[float]]] = None
     log: list[tuple[int, int, float]] = field(default_factory=list)
     next_step: int = 0
 
@@ -98,8 +157,12 @@ class ThreadTuner:
 
     def first_count(self, n_particles: int) -> int:
         """The count a run of ``n_particles`` starts on: one thread below
-        :data:`SERIAL_BELOW` particles, all of them from there."""
-        return 1 if n_particles < SERIAL_BELOW else self.cap
+        :data:`SERIAL_BELOW` particles, all of them from there unless other processes leave
+        fewer than ``cap`` cores idle (sampled for :data:`START_SAMPLE_S`)."""
+        if n_particles < SERIAL_BELOW or self.cap == 1:
+            return 1
+        idle = self.idle(START_SAMPLE_S) if self.idle is not None else None
+        return self.cap if _room_for(self.cap, idle, 0.0) else 1
 
     def count_to_go_on(self) -> int:
         """The count :meth:`resume` goes on with: the one in use, not a trial's."""
@@ -171,13 +234,18 @@ class ThreadTuner:
             return
         self._pace = elapsed / steps
         if elapsed >= 0.5 * self.window_s:  # a full window
+            # cores idle beside the run's one thread over this window (asked only then)
+            idle = (self.idle(0.0) if self.idle is not None and self.threads == 1
+                    and self.cap > 1 else None)
             self._recent = (self._recent + [cost])[-3:]
             self._since_probe += elapsed
             if self._settled_cost == float("inf"):
                 self._settled_cost = cost
             if len(self._recent) == 3 and self._typical() > self.change * self._settled_cost:
                 self._wait = min(self._wait, self.change_wait_s)  # conditions changed
-            if self.cap > 1 and self._since_probe >= self._wait:
+            # (a trial of cap threads waits, window by window, while the machine is busy)
+            if (self.cap > 1 and self._since_probe >= self._wait
+                    and (self.threads != 1 or _room_for(self.cap, idle, 1.0))):
                 self._reference = self._typical()
                 self._trial = TRIAL_WINDOWS + 1
                 self._trial_time = 0.0
