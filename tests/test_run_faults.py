@@ -573,3 +573,22 @@ def test_a_verb_whose_import_the_interrupt_broke_exits_130(
         with cli._errors():
             raise ImportError("numba._devicearray failed to import")
     assert exit_.value.exit_code == 130
+
+
+def test_an_interrupt_inside_a_verb_is_reported_once(monkeypatch: pytest.MonkeyPatch,
+                                                     capsys: pytest.CaptureFixture[str],
+                                                     tmp_path: Path) -> None:
+    """A Ctrl-C inside a verb (seen when a SIGINT at 0.5 s of start-up met numba compiling
+    the verb's modules on a cold cache): the verb says "interrupted" and exits 130, and the
+    program does not say it again for that exit code."""
+    import grainflow.cli as cli
+
+    def interrupted(rundir, runner):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_describe", interrupted)
+    monkeypatch.setitem(cli._state, "interrupt_reported", False)
+    with pytest.raises(SystemExit) as exit_:
+        cli.entry(["info", str(tmp_path)])
+    assert exit_.value.code == 130
+    assert capsys.readouterr().err == "error: interrupted\n"

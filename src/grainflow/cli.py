@@ -32,7 +32,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False, rich_markup_mode=None,
     help="DEM simulation of granular flows: run a TOML config, resume, inspect and export runs.")
 
-_state: dict[str, Any] = {"debug": False}
+_state: dict[str, Any] = {"debug": False, "interrupt_reported": False}
 
 ThreadsOption = Annotated[Optional[str], typer.Option(
     "--threads", help="Compute threads: 'auto' (measure during the run whether one thread or "
@@ -285,7 +285,9 @@ def entry(argv: list[str] | None = None) -> None:
         message = err.format_message() if hasattr(err, "format_message") else str(err)
         typer.echo(f"error: {' '.join(message.split())}", err=True)
         sys.exit(getattr(err, "exit_code", 2))
-    if code == 130:  # typer turns a Ctrl-C outside our verbs into a silent exit 130
+    if code == 130 and not _state["interrupt_reported"]:
+        # typer turns a Ctrl-C outside our verbs into a silent exit 130 (inside them,
+        # _errors has said it already)
         typer.echo("error: interrupted", err=True)
     sys.exit(code if isinstance(code, int) else 0)
 
@@ -317,7 +319,7 @@ def _errors() -> Iterator[None]:
         raise
     except Exception as err:  # every failure ends in one line and a non-zero status
         if interrupt.received():  # an import the start-up interrupt broke
-            typer.echo("error: interrupted", err=True)
+            _report_interrupt()
             raise typer.Exit(130) from None
         if _state["debug"]:
             raise
@@ -329,8 +331,14 @@ def _errors() -> Iterator[None]:
             typer.echo(f"error: {message}", err=True)
         raise typer.Exit(code if code is not None else 1) from None
     except KeyboardInterrupt:
-        typer.echo("error: interrupted", err=True)
+        _report_interrupt()
         raise typer.Exit(130) from None
+
+
+def _report_interrupt() -> None:
+    """Say "interrupted", once (:func:`entry` does not repeat it for the exit code 130)."""
+    typer.echo("error: interrupted", err=True)
+    _state["interrupt_reported"] = True
 
 
 def _one_line_warning(message: Warning | str, category: type[Warning], filename: str,
