@@ -61,8 +61,9 @@ SERIAL_BELOW = 4000
 #: Judged windows a trial runs at least (after one that wakes the threads up).
 TRIAL_WINDOWS = 3
 
-#: Seconds over which the machine's idle cores are sampled before a run's first step.
-START_SAMPLE_S = 0.02
+#: Seconds over which the machine's idle cores are sampled before a run's first step
+#: (``/proc/stat`` counts in 10 ms ticks: over 50 ms on 2 cores, a tenth of a core).
+START_SAMPLE_S = 0.05
 
 #: Cores a count must find idle, below the count itself: half a core of other work beside
 #: the run is tolerated.
