@@ -86,6 +86,9 @@ class RingReinsertion(Updater):
     id to its preferred area (the counted size).
     """
 
+    #: It only moves whole rings, in place: the compiled step loop keeps its step calls.
+    keeps_step_calls = True
+
     def __init__(self, inner: HopperReinsertion, n_vertices: int,
                  area0: dict[int, float]) -> None:
         self.inner = inner
