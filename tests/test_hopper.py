@@ -501,11 +501,11 @@ def test_batched_placement_is_the_one_at_a_time_rule(dim: int, check_overlaps: b
         assert batched.rng.random() == single.rng.random()
 
 
-def test_the_quick_check_finds_work_exactly_when_the_full_check_does() -> None:
-    """``reinsertion_pending`` (which lets a check that finds nothing return at once) is
-    true exactly when the update's own arrays of crossed or due grains are not empty, on
-    random flags and heights, grains on the thresholds included."""
-    from grainflow.kernels.placement import reinsertion_pending
+def test_the_crossing_kernel_follows_the_rule_on_random_flags_and_heights() -> None:
+    """``crossings`` gives the grains the module docstring's rule names: crossed = not
+    flagged and below the plane; due = flagged (or just crossed) and below the reinsertion
+    depth; on random flags and heights, grains exactly on both thresholds included."""
+    from grainflow.kernels.placement import crossings
 
     rng = np.random.default_rng(3)
     orifice, depth = 2.0, 2.5
@@ -519,9 +519,9 @@ def test_the_quick_check_finds_work_exactly_when_the_full_check_does() -> None:
         x[on_edge, 1] = np.where(rng.random(on_edge.sum()) < 0.5, orifice,
                                  orifice - depth * 2.0 * radius[on_edge])
         h = x[:, 1]
-        crossed = (flag == 0) & (h < orifice)
+        crossed = np.flatnonzero((flag == 0) & (h < orifice))
         after = flag.copy()
         after[crossed] = 1
-        due = (after == 1) & (h < orifice - depth * 2.0 * radius)
-        assert reinsertion_pending(flag, x, 1, orifice, depth * 2.0, radius) == bool(
-            crossed.any() or due.any())
+        due = np.flatnonzero((after == 1) & (h < orifice - depth * 2.0 * radius))
+        got_crossed, got_due = crossings(flag, x, 1, orifice, depth * 2.0, radius)
+        assert np.array_equal(got_crossed, crossed) and np.array_equal(got_due, due)

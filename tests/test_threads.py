@@ -215,3 +215,18 @@ def test_auto_starts_and_stays_on_one_thread_while_the_machine_is_busy() -> None
                           idle=lambda wait: None)
     unknown.begin(0, 32000, 0)
     assert machine.threads == 2  # unknown: as before
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 numba threads")
+def test_a_run_samples_the_idle_cores_once_before_its_first_step(monkeypatch) -> None:
+    """The starting count is chosen once: the run sets it before its set-up evaluation and
+    the tuner's first window starts on it, without sampling the machine a second time."""
+    from grainflow.engine.threads import START_SAMPLE_S, CpuLoad
+    from grainflow.scenarios.chute import chute_cut
+
+    waits: list[float] = []
+    monkeypatch.setattr(CpuLoad, "idle_cores",
+                        lambda self, wait=0.0: waits.append(wait) or 2.0)
+    sim = chute_cut(0.5, 0.5)  # 8,000 grains: a run that may start on two threads
+    sim.run(2)
+    assert waits.count(START_SAMPLE_S) == 1

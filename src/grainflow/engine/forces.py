@@ -143,8 +143,8 @@ class Drag(Force):
     def compute(self, ctx: ForceContext, update: bool) -> None:
         st = ctx.state
         if self.per_mass:
-            for_threads_now(_add_mass_drag)(st.force, st.v, st.mass, self._values_of_types(st), st.type,
-                           st.frozen)
+            for_threads_now(_add_mass_drag)(st.force, st.v, st.mass, self._values_of_types(st),
+                                            st.type, st.frozen)
         else:
             for_threads_now(_add_drag)(st.force, st.v, self._values_of_types(st), st.type,
                                        st.frozen)

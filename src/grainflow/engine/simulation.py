@@ -411,9 +411,10 @@ class Simulation:
         if self._threads == "auto":
             tuner = self._tuner
             if tuner is None or tuner.cap != before:
-                tuner = self._tuner = ThreadTuner(before, log=self.thread_log, idle=CpuLoad().idle_cores)
-            tuner.set_threads(tuner.count_to_go_on() if tuner.started
-                              else tuner.first_count(self.state.n))
+                tuner = self._tuner = ThreadTuner(before, log=self.thread_log,
+                                                  idle=CpuLoad().idle_cores)
+            count = tuner.count_to_go_on() if tuner.started else tuner.first_count(self.state.n)
+            tuner.set_threads(count)
         else:
             numba.set_num_threads(min(self._threads, numba.config.NUMBA_NUM_THREADS))
         t0 = _time.perf_counter()
@@ -430,7 +431,7 @@ class Simulation:
             if tuner is not None and tuner.started:
                 tuner.resume(clock.step, self.particle_steps)
             elif tuner is not None:
-                tuner.begin(clock.step, self.state.n, self.particle_steps)
+                tuner.begin(clock.step, self.state.n, self.particle_steps, count)
             t0 = _time.perf_counter()  # wall_seconds counts the steps, as before
             while clock.step < end:
                 quiet = self._quiet_steps(end, tuner, until, until_every)

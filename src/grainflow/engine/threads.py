@@ -169,9 +169,11 @@ class ThreadTuner:
         """The count :meth:`resume` goes on with: the one in use, not a trial's."""
         return self._other if self._trial else self.threads
 
-    def begin(self, step: int, n_particles: int, particle_steps: int) -> None:
-        """Set the starting count and open the first window at ``step``."""
-        self.threads = self.first_count(n_particles)
+    def begin(self, step: int, n_particles: int, particle_steps: int,
+              threads: int | None = None) -> None:
+        """Set the starting count (``threads``, when the caller already chose it with
+        :meth:`first_count`) and open the first window at ``step``."""
+        self.threads = self.first_count(n_particles) if threads is None else threads
         self.set_threads(self.threads)
         self._recent: list[float] = []  # costs of the last full windows of the count in use
         self._settled_cost = float("inf")  # its typical cost when it was last chosen

@@ -1,6 +1,6 @@
 """Compiled parts of the hopper reinsertion (SPEC M8; seed 003, Sec. 2.4;
-:class:`grainflow.scenarios.hopper_reinsertion.HopperReinsertion`): whether a check has
-anything to do, and where a reinserted grain lands on the pile."""
+:class:`grainflow.scenarios.hopper_reinsertion.HopperReinsertion`): which grains a check
+acts on, and where a reinserted grain lands on the pile."""
 
 from __future__ import annotations
 
@@ -69,16 +69,26 @@ def column_landings(samples, pool, lateral_axes, up, x, radius, i, r, check_over
 
 
 @njit(cache=True)
-def reinsertion_pending(flag, x, up, orifice_height, depth_diameters, radius):
-    """Whether a reinsertion check has anything to do: some grain not flagged yet
-    (``flag == 0``) is below the orifice plane ``orifice_height`` along axis ``up``, or some
-    flagged one (``flag == 1``) is below ``orifice_height - depth_diameters * r_i``
-    (``depth_diameters`` = 2 x the depth in diameters; the same arithmetic as the check's own
-    array form). Most checks (every 10 steps in the seed's hoppers) find nothing."""
-    for i in range(x.shape[0]):
+def crossings(flag, x, up, orifice_height, depth_diameters, radius):
+    """The grains a reinsertion check acts on, as ascending index arrays ``(crossed, due)``:
+    ``crossed``, not flagged yet (``flag == 0``) and below the orifice plane
+    ``orifice_height`` along axis ``up``; ``due``, flagged or just crossed, and below
+    ``orifice_height - depth_diameters * r_i`` (``depth_diameters`` = 2 x the depth in
+    diameters). One pass, no temporary arrays: most checks (every 10 steps in the seed's
+    hoppers) find nothing."""
+    n = x.shape[0]
+    crossed = np.empty(n, dtype=np.int64)
+    due = np.empty(n, dtype=np.int64)
+    n_crossed = 0
+    n_due = 0
+    for i in range(n):
         h = x[i, up]
+        out = flag[i] == 1
         if flag[i] == 0 and h < orifice_height:
-            return True
-        if flag[i] == 1 and h < orifice_height - depth_diameters * radius[i]:
-            return True
-    return False
+            crossed[n_crossed] = i
+            n_crossed += 1
+            out = True
+        if out and h < orifice_height - depth_diameters * radius[i]:
+            due[n_due] = i
+            n_due += 1
+    return crossed[:n_crossed].copy(), due[:n_due].copy()

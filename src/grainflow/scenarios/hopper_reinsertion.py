@@ -78,7 +78,7 @@ from typing import Any, Callable
 import numpy as np
 
 from grainflow.engine.operations import ForceContext, Updater, UpdateContext
-from grainflow.kernels.placement import column_landings, reinsertion_pending
+from grainflow.kernels.placement import column_landings, crossings
 
 
 #: Name of the per-particle flag "crossed the orifice, not yet reinserted".
@@ -226,16 +226,12 @@ class HopperReinsertion(Updater):
         if OUT_FLAG not in st.arrays:
             self.setup_state(ctx)
         out = st.arrays[OUT_FLAG]
-        if not reinsertion_pending(out, st.x, self.axis, self.orifice_height,
-                                   self.depth * 2.0, st.radius):
-            return  # nothing crossed, nothing due (the arrays below would be empty)
-        h = st.x[:, self.axis]
-        crossed = np.flatnonzero((out == 0) & (h < self.orifice_height))
+        crossed, due = crossings(out, st.x, self.axis, self.orifice_height, self.depth * 2.0,
+                                 st.radius)
         if crossed.size:
             out[crossed] = 1
             if self.count_at == "orifice":
                 self._record(ctx, crossed)
-        due = np.flatnonzero((out == 1) & (h < self.orifice_height - self.depth * 2.0 * st.radius))
         if due.size and self.count_at == "reinsertion":
             self._record(ctx, due)
         if due.size and self.placement == "pile":
@@ -324,8 +320,7 @@ class HopperReinsertion(Updater):
             saved = ctx.rng.bit_generator.state
             p = self._lateral_samples(ctx.rng, span, k)
             partners, heights, blocked = column_landings(
-                np.ascontiguousarray(p), idx, lat, ax, st.x, st.radius, i, r, check_overlaps,
-                self.inside is None)
+                p, idx, lat, ax, st.x, st.radius, i, r, check_overlaps, self.inside is None)
             for q in np.flatnonzero(partners >= 0):
                 target = np.zeros(st.x.shape[1])
                 target[lat] = p[q]
