@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import copy
 import itertools
 import tracemalloc
 import warnings
@@ -351,7 +352,7 @@ def test_dense_and_hashed_cell_lookups_give_the_same_table(dim, periodic, length
     nl = NeighborList(0.1)
     geom = ListGeometry.from_state(st)
     nl.wrap(st, geom)
-    coords, keys, order, cmin, extent, ncell, offsets, _ = nl.cell_order(st, geom, 0.0)
+    coords, keys, order, cmin, extent, ncell, offsets, _, _ = nl.cell_order(st, geom, 0.0)
     cell_keys, first = np.unique(keys, return_index=True)
     cell_coords = np.ascontiguousarray(coords[first])
     args = (cell_coords, cell_keys, offsets, cmin, extent, geom.periodic, ncell)
@@ -359,6 +360,40 @@ def test_dense_and_hashed_cell_lookups_give_the_same_table(dim, periodic, length
     hashed = nk.cell_neighbor_table(*args, dense_limit=0)
     np.testing.assert_array_equal(dense, hashed)
     assert np.sum(dense >= 0) > cell_keys.size  # cells do have occupied neighbours
+
+
+@pytest.mark.parametrize("reach", [0.0, 0.07])
+@pytest.mark.parametrize("dim, periodic, lengths", CASES)
+def test_dense_grid_and_hashed_cells_give_the_same_list(monkeypatch, dim, periodic, lengths,
+                                                        reach):
+    """The dense grid with ghost cells (counting sort, fixed key offsets) and the hashed
+    occupied cells must give the same particle order and the same list, which equals the
+    all-pairs search; both before and after the particles are re-sorted in cell order."""
+    rng = np.random.default_rng([7, dim, int(sum(periodic)), int(100 * reach)])
+    st = _random_state(dim, periodic, np.array(lengths), 150 if dim == 2 else 300, rng)
+    skin = 0.15
+    built = {}
+    for limit in (np.inf, 0):
+        monkeypatch.setattr(nk, "DENSE_GRID_CELLS_PER_PARTICLE", limit)
+        nl = NeighborList(skin)
+        geom = ListGeometry.from_state(st)
+        nl.wrap(st, geom)
+        cells = nl.cell_order(st, geom, reach)
+        short = any(periodic[a] and cells.ncell[a] < 3 for a in range(dim))
+        assert (cells.start is not None) == (limit == np.inf and not short)
+        nl.build(st, geom, cells)
+        unsorted = (nl.row_ptr.copy(), nl.nbr.copy())
+        moved = copy.deepcopy(st)
+        old_to_new = np.empty(st.n, dtype=np.int64)
+        old_to_new[cells.order] = np.arange(st.n)
+        moved.reindex(old_to_new)
+        nl.build(moved, geom, nl.in_new_order(cells))
+        built[limit] = (cells.order, unsorted, (nl.row_ptr, nl.nbr))
+        assert _listed_pairs(nl) == _brute_force(moved, geom, reach + skin)
+    dense, hashed = built[np.inf], built[0]
+    np.testing.assert_array_equal(dense[0], hashed[0])
+    for a, b in zip(dense[1] + dense[2], hashed[1] + hashed[2]):
+        np.testing.assert_array_equal(a, b)
 
 
 # ------------------------------------------------------------------ sparse tall column

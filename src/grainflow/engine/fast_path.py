@@ -13,8 +13,10 @@ clock time ``time``, and the arrays and numbers it takes. A force operation's ad
 ``adapter(args, time, dt, last)``: ``last`` is true on the last step of the run, after
 which Python reads the state, so an operation may skip records only Python reads (the pair
 loop's per-pair forces) on the other steps. The integrator's halves are
-``adapter(args, time, dt)``. The same kernels run in the same order on the same arrays, so a run is bitwise the
-same either way (tests/test_fast_path.py).
+``adapter(args, time, dt)``. Between two steps of a run the integrator's second half and the
+next step's first half are one call (for velocity Verlet one pass over the particles
+instead of two, adding the same terms in the same order). The same kernels run in the same
+order on the same arrays, so a run is bitwise the same either way (tests/test_fast_path.py).
 
 The loop stops early, returning control to Python, after the first half of a step in which
 some particle has moved more than half the skin: that step is finished in Python, where the
@@ -95,19 +97,23 @@ def step_call(template: Any, name: str, args: tuple, *, serial_twins: bool = Tru
 
 
 def _run_steps(k, time, dt, limit, x, x_ref, box_len, periodic, pre_args, post_args,
-               a0, a1, a2, a3, a4, a5, a6, a7):
+               joined_args, a0, a1, a2, a3, a4, a5, a6, a7):
     """Up to ``k`` steps from clock time ``time``: ``(steps done, new time, pending)``.
 
     ``pending``: the last step's first half is done but some particle moved more than
     ``sqrt(limit)`` since the list was built; the caller finishes that step (not counted in
     the steps done), rebuilding the list and computing every force in Python. Otherwise the
-    force operations are told which step is the ``k``-th, the last. Template: ``PRE``,
-    ``POST``, ``OP0`` ... ``OP7`` and ``DISPLACEMENT``
+    force operations are told which step is the ``k``-th, the last. Between two steps of
+    the run the second half of one and the first half of the next are one call,
+    ``JOINED`` (:meth:`~grainflow.engine.operations.Integrator.step_calls`). Template:
+    ``PRE``, ``POST``, ``JOINED``, ``OP0`` ... ``OP7`` and ``DISPLACEMENT``
     (:func:`~grainflow.kernels.neighbors.max_displacement_sq`) are bound by
     :class:`FastPath`.
     """
+    if k == 0:
+        return 0, time, False
+    PRE(pre_args, time, dt)  # noqa: F821 (bound names)
     for s in range(k):
-        PRE(pre_args, time, dt)  # noqa: F821 (bound names)
         if DISPLACEMENT(x, x_ref, box_len, periodic) > limit:  # noqa: F821
             return s, time, True
         last = s == k - 1
@@ -119,7 +125,10 @@ def _run_steps(k, time, dt, limit, x, x_ref, box_len, periodic, pre_args, post_a
         OP5(a5, time, dt, last)  # noqa: F821
         OP6(a6, time, dt, last)  # noqa: F821
         OP7(a7, time, dt, last)  # noqa: F821
-        POST(post_args, time, dt)  # noqa: F821
+        if last:
+            POST(post_args, time, dt)  # noqa: F821
+        else:
+            JOINED(joined_args, time, dt)  # noqa: F821
         time = time + dt
     return k, time, False
 
@@ -143,8 +152,10 @@ class FastPath:
         :attr:`~grainflow.engine.operations.Updater.keeps_step_calls`)."""
         self._calls_key = None
 
-    def calls(self, sim: Any) -> tuple[StepCall, StepCall, list[StepCall]] | None:
-        """The integrator's two halves and every force's step call, or None when some
+    def calls(self, sim: Any
+              ) -> tuple[StepCall, StepCall, StepCall, list[StepCall]] | None:
+        """The integrator's two halves, the two joined, and every force's step call, or
+        None when some
         operation has none (then the simulation steps in Python). Kept while the list,
         the particle set and the thread count stay (and until :meth:`forget`)."""
         threads = numba.get_num_threads()
@@ -156,7 +167,8 @@ class FastPath:
             self.collections += 1
         return self._calls
 
-    def _collect(self, sim: Any) -> tuple[StepCall, StepCall, list[StepCall]] | None:
+    def _collect(self, sim: Any
+                 ) -> tuple[StepCall, StepCall, StepCall, list[StepCall]] | None:
         ctx = sim.context
         halves = sim.integrator.step_calls(ctx)
         zeroing = [] if sim.interactions else [zero_forces_call(sim.state)]
@@ -169,24 +181,28 @@ class FastPath:
             if call is None:
                 return None
             ops.append(call)
-        return halves[0], halves[1], ops
+        return halves[0], halves[1], halves[2], ops
 
-    def run(self, sim: Any, k: int, calls: tuple[StepCall, StepCall, list[StepCall]]
+    def run(self, sim: Any, k: int,
+            calls: tuple[StepCall, StepCall, StepCall, list[StepCall]]
             ) -> tuple[int, float, bool]:
         """Up to ``k`` steps (see :func:`_run_steps`); the caller advances the clock."""
-        pre, post, ops = calls
+        pre, post, joined, ops = calls
         ops = ops + [StepCall(nothing, ())] * (SLOTS - len(ops))
         displacement = serial(max_displacement_sq) if self._serial else max_displacement_sq
-        key = (pre.adapter, post.adapter, displacement, *(op.adapter for op in ops))
+        key = (pre.adapter, post.adapter, joined.adapter, displacement,
+               *(op.adapter for op in ops))
         loop = self._loops.get(key)
         if loop is None:
-            bindings = {"PRE": pre.adapter, "POST": post.adapter, "DISPLACEMENT": displacement}
+            bindings = {"PRE": pre.adapter, "POST": post.adapter, "JOINED": joined.adapter,
+                        "DISPLACEMENT": displacement}
             bindings.update({f"OP{i}": op.adapter for i, op in enumerate(ops)})
             loop = self._loops[key] = specialize(_run_steps, "run_steps", bindings)
         nl = sim.neighbors
         g = sim.geometry
         done, time, pending = loop(k, sim.clock.time, sim.clock.dt, 0.25 * nl.skin * nl.skin,
                                    sim.state.x, nl.reference_positions, g.length, g.periodic,
-                                   pre.args, post.args, *(op.args for op in ops))
+                                   pre.args, post.args, joined.args,
+                                   *(op.args for op in ops))
         self.steps_done += done
         return done, time, pending

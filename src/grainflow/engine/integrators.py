@@ -28,6 +28,12 @@ def _second_half_step(a, time, dt):
     SECOND_HALF(a[0], a[1], a[2], a[3], a[4], a[5], a[6], dt)  # noqa: F821
 
 
+def _joined_halves_step(a, time, dt):
+    """:meth:`VelocityVerlet.post_force`, then the next step's ``pre_force``, in the
+    compiled step loop (``JOINED`` bound)."""
+    JOINED(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], dt)  # noqa: F821
+
+
 class VelocityVerlet(Integrator):
     """Velocity Verlet for positions, velocities and spins (LAMMPS ``nve/sphere``)."""
 
@@ -43,14 +49,16 @@ class VelocityVerlet(Integrator):
         for_threads_now(ik.verlet_second_half)(st.v, st.omega, st.force, st.torque, st.mass,
                                                st.inertia, st.frozen, ctx.dt)
 
-    def step_calls(self, ctx: ForceContext) -> tuple[StepCall, StepCall]:
+    def step_calls(self, ctx: ForceContext) -> tuple[StepCall, StepCall, StepCall]:
         st = ctx.state
-        return (step_call(_first_half_step, "verlet_first", (st.x, st.v, st.omega, st.force,
-                          st.torque, st.mass, st.inertia, st.frozen),
+        both = (st.x, st.v, st.omega, st.force, st.torque, st.mass, st.inertia, st.frozen)
+        return (step_call(_first_half_step, "verlet_first", both,
                           FIRST_HALF=ik.verlet_first_half),
                 step_call(_second_half_step, "verlet_second", (st.v, st.omega, st.force,
                           st.torque, st.mass, st.inertia, st.frozen),
-                          SECOND_HALF=ik.verlet_second_half))
+                          SECOND_HALF=ik.verlet_second_half),
+                step_call(_joined_halves_step, "verlet_joined", both,
+                          JOINED=ik.verlet_second_then_first_half))
 
 
 class AdamsBashforth2(Integrator):

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from grainflow.kernels import neighbors as nk
@@ -35,6 +37,36 @@ def _stencil(dim: int, short: tuple[int, int, int]) -> np.ndarray:
             per_axis.append([-1, 0, 1])
     grid = np.array(np.meshgrid(*per_axis, indexing="ij")).reshape(3, -1).T
     return np.ascontiguousarray(grid, dtype=np.int64)
+
+
+class Cells(NamedTuple):
+    """:meth:`NeighborList.cell_order`'s result: each particle's integer cell ``coords``
+    (N, 3) and linear ``keys`` (N,) over a box of ``extent`` cells from ``cmin``, the
+    key-sorted ``order``, the periodic cell counts ``ncell``, the stencil ``offsets``, the
+    list's ``margin`` (reach + skin), and, when the box is stored densely, ``start``: the
+    first sorted position of each key (``extent`` then includes a ghost layer; see
+    :func:`~grainflow.kernels.neighbors.ghost_cell_ranges`), else None."""
+
+    coords: np.ndarray
+    keys: np.ndarray
+    order: np.ndarray
+    cmin: np.ndarray
+    extent: np.ndarray
+    ncell: np.ndarray
+    offsets: np.ndarray
+    margin: float
+    start: np.ndarray | None
+
+
+@functools.lru_cache(maxsize=64)
+def _grid_deltas(dim: int, extent: tuple[int, int, int]) -> np.ndarray:
+    """Key offsets of the cell stencil (-1, 0, 1 along each of the ``dim`` axes) in a grid
+    of ``extent`` cells, ascending (rows then come out nearly sorted). Shared between
+    builds: not to be written to."""
+    per_axis = [[-1, 0, 1] if a < dim else [0] for a in range(3)]
+    grid = np.array(np.meshgrid(*per_axis, indexing="ij")).reshape(3, -1).T
+    deltas = (grid[:, 0] * extent[1] + grid[:, 1]) * extent[2] + grid[:, 2]
+    return np.sort(deltas).astype(np.int64)
 
 
 @dataclass
@@ -111,8 +143,13 @@ class NeighborList:
                 state.x[:, a] -= shift * geom.length[a]
                 state.image[:, a] += shift.astype(np.int64)
 
-    def cell_order(self, state: ParticleState, geom: ListGeometry, reach: float):
-        """Cell coordinates, linear keys and the key-sorted particle order."""
+    def cell_order(self, state: ParticleState, geom: ListGeometry, reach: float) -> Cells:
+        """Cell coordinates, linear keys and the key-sorted particle order (:class:`Cells`).
+
+        A box of at most :data:`~grainflow.kernels.neighbors.DENSE_GRID_CELLS_PER_PARTICLE`
+        cells per particle (a packing, a flowing pile) is sorted by counting and stored
+        densely with ghost cells; a sparse one (a dilute stream, a jet) keeps its occupied
+        cells only, sorted and hashed. Both give the same order and the same list."""
         rmax = float(state.radius.max()) if state.n else 0.0
         margin = reach + self.skin
         cut = 2.0 * rmax + margin
@@ -128,8 +165,8 @@ class NeighborList:
                 cell[a] = geom.length[a] / ncell[a]
         coords = nk.cell_coordinates(state.x, geom.lo, cell, ncell, geom.periodic)
         if state.n:
-            cmin = coords.min(axis=0)
-            extent = coords.max(axis=0) - cmin + 1
+            cmin, cmax = nk.coordinate_bounds(coords)
+            extent = cmax - cmin + 1
         else:
             cmin = np.zeros(3, dtype=np.int64)
             extent = np.ones(3, dtype=np.int64)
@@ -140,17 +177,28 @@ class NeighborList:
         if float(extent[0]) * float(extent[1]) * float(extent[2]) > 2.0**62:
             raise ValueError("neighbour cells: particles spread over too many cells; some "
                              "particle has probably flown away (check the time step)")
+        offsets = self._offsets(state.dim, geom.periodic, ncell)
+        # a dense grid with a ghost layer on each of the dim axes, where it is small and no
+        # periodic axis is short (a ghost would then repeat a neighbour cell)
+        pad = np.array([1 if a < state.dim else 0 for a in range(3)], dtype=np.int64)
+        padded = extent + 2 * pad
+        short = any(geom.periodic[a] and ncell[a] < 3 for a in range(state.dim))
+        if (state.n and not short and float(np.prod(padded.astype(float)))
+                <= nk.DENSE_GRID_CELLS_PER_PARTICLE * state.n):
+            keys = nk.linear_keys(coords, cmin - pad, padded)
+            order, start = nk.counting_sort(keys, int(np.prod(padded)))
+            return Cells(coords, keys, order, cmin - pad, padded, ncell, offsets, margin, start)
         keys = nk.linear_keys(coords, cmin, extent)
         order = np.argsort(keys, kind="stable")
-        offsets = self._offsets(state.dim, geom.periodic, ncell)
-        return coords, keys, order, cmin, extent, ncell, offsets, margin
+        return Cells(coords, keys, order, cmin, extent, ncell, offsets, margin, None)
 
     @staticmethod
-    def in_new_order(cells):
+    def in_new_order(cells: Cells) -> Cells:
         """:meth:`cell_order`'s result after the particles were re-indexed in its order."""
-        coords, keys, order, *rest = cells
-        return (np.ascontiguousarray(coords[order]), keys[order],
-                np.arange(order.shape[0], dtype=np.int64), *rest)
+        order = cells.order
+        return cells._replace(coords=np.ascontiguousarray(cells.coords[order]),
+                              keys=cells.keys[order],
+                              order=np.arange(order.shape[0], dtype=np.int64))
 
     @staticmethod
     def _offsets(dim: int, periodic: np.ndarray, ncell: np.ndarray) -> np.ndarray:
@@ -158,11 +206,21 @@ class NeighborList:
         short = tuple(int(ncell[a]) if periodic[a] and ncell[a] < 3 else 0 for a in range(3))
         return _stencil(dim, short)
 
-    def build(self, state: ParticleState, geom: ListGeometry, cells) -> None:
+    def build(self, state: ParticleState, geom: ListGeometry, cells: Cells) -> None:
         """Build the half list and its transpose from :meth:`cell_order`'s result."""
-        coords, keys, order, cmin, extent, ncell, offsets, margin = cells
         n = state.n
-        sorted_keys = keys[order]
+        order = cells.order.astype(np.int64)
+        in_cell_order = bool(np.all(order == np.arange(n)))
+        if cells.start is not None:
+            first, end = nk.ghost_cell_ranges(cells.start, cells.extent, geom.periodic)
+            self.row_ptr, self.nbr, self._capacity = nk.build_half_list_grid(
+                state.x, state.radius, state.frozen, state.body, cells.keys, first, end,
+                _grid_deltas(state.dim, tuple(int(e) for e in cells.extent)), order,
+                geom.length, geom.periodic, cells.margin, self._capacity, in_cell_order,
+                numba.get_num_threads())
+            self._adopt_rows(state, geom)
+            return
+        sorted_keys = cells.keys[order]
         if n:
             starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
         else:
@@ -171,12 +229,12 @@ class NeighborList:
         cell_start = np.r_[starts, n].astype(np.int64)
         cell_of = np.empty(n, dtype=np.int64)
         cell_of[order] = np.repeat(np.arange(starts.shape[0]), np.diff(cell_start))
-        table = nk.cell_neighbor_table(np.ascontiguousarray(coords[order[starts]]), cell_keys,
-                                       offsets, cmin, extent, geom.periodic, ncell)
+        table = nk.cell_neighbor_table(np.ascontiguousarray(cells.coords[order[starts]]),
+                                       cell_keys, cells.offsets, cells.cmin, cells.extent,
+                                       geom.periodic, cells.ncell)
         self.row_ptr, self.nbr, self._capacity = nk.build_half_list(
             state.x, state.radius, state.frozen, state.body, cell_of, table, cell_start,
-            order.astype(np.int64), geom.length, geom.periodic, margin, self._capacity,
-            bool(np.all(order == np.arange(n))))
+            order, geom.length, geom.periodic, cells.margin, self._capacity, in_cell_order)
         self._adopt_rows(state, geom)
 
     def build_empty(self, state: ParticleState, geom: ListGeometry) -> None:

@@ -270,9 +270,11 @@ class Integrator(ABC):
     def post_force(self, ctx: ForceContext) -> None:
         """After the forces of the step are known."""
 
-    def step_calls(self, ctx: ForceContext) -> "tuple[StepCall, StepCall] | None":
-        """``pre_force`` and ``post_force`` as compiled calls (see :meth:`Force.step_call`);
-        None (the default): the simulation steps in Python."""
+    def step_calls(self, ctx: ForceContext) -> "tuple[StepCall, StepCall, StepCall] | None":
+        """``pre_force``, ``post_force``, and ``post_force`` followed by the next step's
+        ``pre_force`` as one call (e.g. one pass over the particles instead of two, bitwise
+        the same as the two), as compiled calls (see :meth:`Force.step_call`); None (the
+        default): the simulation steps in Python."""
         return None
 
 

@@ -48,6 +48,25 @@ def verlet_second_half(v, omega, force, torque, mass, inertia, frozen, dt):
 
 
 @njit(cache=True, parallel=True)
+def verlet_second_then_first_half(x, v, omega, force, torque, mass, inertia, frozen, dt):
+    """One step's second half, then the next step's first half, in one pass over the
+    particles: both half kicks use the same forces (nothing changes them in between), and
+    each is added on its own, so the result is bitwise that of the two passes."""
+    h = 0.5 * dt
+    for i in prange(x.shape[0]):
+        if frozen[i]:
+            continue
+        a = h / mass[i]
+        b = h / inertia[i]
+        for c in range(3):
+            v[i, c] += a * force[i, c]
+            omega[i, c] += b * torque[i, c]
+            v[i, c] += a * force[i, c]
+            omega[i, c] += b * torque[i, c]
+            x[i, c] += dt * v[i, c]
+
+
+@njit(cache=True, parallel=True)
 def adams_bashforth2_step(x, v, omega, force, torque, force_prev, torque_prev, mass, inertia,
                           frozen, dt):
     """One AB2 step (eqs. B.21-B.23); stores the current force as the next step's previous."""

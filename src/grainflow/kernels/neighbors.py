@@ -46,6 +46,19 @@ def cell_coordinates(x, lo, cell_size, ncell, periodic):
     return c
 
 
+@njit(cache=True)
+def coordinate_bounds(c):
+    """Smallest and largest cell coordinate along each axis of ``c`` (N >= 1, 3): one pass,
+    where numpy's ``min(axis=0)`` and ``max(axis=0)`` take a millisecond on 32k rows."""
+    lo = c[0].copy()
+    hi = c[0].copy()
+    for i in range(1, c.shape[0]):
+        for a in range(3):
+            lo[a] = min(lo[a], c[i, a])
+            hi[a] = max(hi[a], c[i, a])
+    return lo, hi
+
+
 @njit(cache=True, parallel=True)
 def linear_keys(c, cmin, extent):
     """Linearise cell coordinates into int64 keys (row-major over x, y, z)."""
@@ -278,6 +291,169 @@ def build_half_list(x, radius, frozen, body, cell_of, table, cell_start, order, 
     nbr = np.empty(row_ptr[n], dtype=np.int64)
     _compact_rows(scratch, capacity, row_ptr, nbr)
     return row_ptr, nbr, capacity
+
+
+#: A cell grid is stored densely (every cell of the occupied box, with a ghost layer) when it
+#: holds at most this many cells per particle; otherwise the occupied cells are hashed.
+DENSE_GRID_CELLS_PER_PARTICLE = 4
+
+
+@njit(cache=True)
+def counting_sort(keys, n_keys):
+    """Stable order of ``keys`` (each in ``[0, n_keys)``) and where each key starts in it.
+
+    Returns ``order`` (N,), the particle indices sorted by key, ties in index order (what a
+    stable ``argsort`` gives), and ``start`` (n_keys + 1,): the particles of key ``c`` are
+    ``order[start[c]:start[c + 1]]``. O(N + n_keys), against O(N log N) for a sort."""
+    n = keys.shape[0]
+    start = np.zeros(n_keys + 1, dtype=np.int64)
+    for i in range(n):
+        start[keys[i] + 1] += 1
+    for c in range(n_keys):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        order[fill[keys[i]]] = i
+        fill[keys[i]] += 1
+    return order, start
+
+
+@njit(cache=True)
+def ghost_cell_ranges(start, extent, periodic):
+    """Each cell's slice ``[first, end)`` of the key-sorted particles, ghosts included.
+
+    The grid of ``extent`` cells carries a layer of ghost cells on every axis with
+    ``extent > 1``. On an open axis they hold no particle (the counting sort left them
+    empty, in place). On a periodic one each ghost names the particles of the cell it is
+    the periodic image of (the first real cell for the ghost after the last, the last for
+    the ghost before the first; its other coordinates unchanged). A cell's neighbours are
+    then at fixed key offsets, with no bounds test and no wrap, and a pair across a periodic
+    boundary is found through the ghost (its branch vector needs the minimum image)."""
+    first = start[:-1].copy()
+    end = start[1:].copy()
+    g = np.empty(3, dtype=np.int64)
+    for c0 in range(extent[0]):
+        for c1 in range(extent[1]):
+            for c2 in range(extent[2]):
+                g[0] = c0
+                g[1] = c1
+                g[2] = c2
+                ghost = False
+                for a in range(3):
+                    if periodic[a] and extent[a] > 1:
+                        if g[a] == 0:
+                            g[a] = extent[a] - 2
+                            ghost = True
+                        elif g[a] == extent[a] - 1:
+                            g[a] = 1
+                            ghost = True
+                if ghost:
+                    src = (g[0] * extent[1] + g[1]) * extent[2] + g[2]
+                    key = (c0 * extent[1] + c1) * extent[2] + c2
+                    first[key] = start[src]
+                    end[key] = start[src + 1]
+    return first, end
+
+
+@njit(cache=True)
+def _scan_grid(i, x, radius, frozen, body, key, first, end, deltas, order, box_len, periodic,
+               margin, out, used, width, in_cell_order):
+    """:func:`_scan` on a dense grid with ghosts (:func:`ghost_cell_ranges`): the cells of
+    the stencil are at the key offsets ``deltas``. The partners are appended to ``out``
+    from ``used`` on, as long as it has room (``width``); their count is returned. With
+    ``in_cell_order`` the particles at sorted positions ``s`` are the indices ``s``
+    themselves: only ``j > i`` is read. The exclusions are tested after the distance, which
+    rejects most candidates."""
+    count = 0
+    xi0 = x[i, 0]
+    xi1 = x[i, 1]
+    xi2 = x[i, 2]
+    ri = radius[i] + margin
+    fi = frozen[i]
+    bi = body[i]
+    for q in range(deltas.shape[0]):
+        c = key + deltas[q]
+        s0 = first[c]
+        s1 = end[c]
+        if in_cell_order and s0 <= i:
+            s0 = i + 1
+        for s in range(s0, s1):
+            j = s if in_cell_order else order[s]
+            if not in_cell_order and j <= i:
+                continue
+            d0 = minimum_image(xi0 - x[j, 0], box_len[0], periodic[0])
+            d1 = minimum_image(xi1 - x[j, 1], box_len[1], periodic[1])
+            d2 = minimum_image(xi2 - x[j, 2], box_len[2], periodic[2])
+            cut = ri + radius[j]
+            if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
+                if fi and frozen[j]:
+                    continue
+                if bi >= 0 and body[j] == bi:
+                    continue
+                if used + count < width:
+                    out[used + count] = j
+                count += 1
+    return count
+
+
+@njit(cache=True, parallel=True)
+def _fill_chunks_grid(x, radius, frozen, body, keys, first, end, deltas, order, box_len,
+                      periodic, margin, buffers, counts, in_cell_order):
+    """Scan the rows in one contiguous chunk per buffer row, appending each chunk's rows
+    one after the other (sorted ascending) to its buffer: written in sequence, not into a
+    fixed-capacity slot per particle. Returns the slots each chunk needed (more than the
+    buffer's width: scan again with a wider one)."""
+    n = x.shape[0]
+    n_chunks = buffers.shape[0]
+    width = buffers.shape[1]
+    need = np.zeros(n_chunks, dtype=np.int64)
+    for t in prange(n_chunks):
+        out = buffers[t]
+        used = 0
+        for i in range((t * n) // n_chunks, ((t + 1) * n) // n_chunks):
+            c = _scan_grid(i, x, radius, frozen, body, keys[i], first, end, deltas, order,
+                           box_len, periodic, margin, out, used, width, in_cell_order)
+            counts[i + 1] = c
+            if used + c <= width:
+                _insertion_sort(out, used, used + c)
+            used += c
+        need[t] = used
+    return need
+
+
+@njit(cache=True)
+def _join_chunks(buffers, need, total):
+    """The chunks' rows one after the other: the list's ``nbr``."""
+    nbr = np.empty(total, dtype=np.int64)
+    at = 0
+    for t in range(buffers.shape[0]):
+        nbr[at:at + need[t]] = buffers[t, :need[t]]
+        at += need[t]
+    return nbr
+
+
+def build_half_list_grid(x, radius, frozen, body, keys, first, end, deltas, order, box_len,
+                         periodic, margin, capacity=16, in_cell_order=False, n_chunks=1):
+    """:func:`build_half_list` on a dense grid with ghosts: ``keys`` (N,) each particle's
+    cell, ``first``/``end`` every cell's slice of the key-sorted ``order``
+    (:func:`ghost_cell_ranges`), ``deltas`` the stencil's key offsets. The rows are scanned
+    in ``n_chunks`` contiguous chunks (one per thread) into buffers of ``capacity`` slots
+    per row on average; a chunk that needs more is scanned again with what it needed.
+    The list does not depend on ``n_chunks``."""
+    n = x.shape[0]
+    n_chunks = max(1, min(n_chunks, n))
+    while True:
+        counts = np.zeros(n + 1, dtype=np.int64)
+        width = max((n // n_chunks + 1) * capacity, 1)
+        buffers = np.empty((n_chunks, width), dtype=np.int64)
+        need = _fill_chunks_grid(x, radius, frozen, body, keys, first, end, deltas, order,
+                                 box_len, periodic, margin, buffers, counts, in_cell_order)
+        if need.max(initial=0) <= width:
+            break
+        capacity = int(need.max()) // (n // n_chunks + 1) + 2
+    row_ptr = np.cumsum(counts)
+    return row_ptr, _join_chunks(buffers, need, int(row_ptr[n])), capacity
 
 
 @njit(cache=True)
