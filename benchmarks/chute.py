@@ -10,13 +10,16 @@ its last line, JSON.
 
 Usage::
 
-    python benchmarks/chute.py [--steps 2000] [--peers DIR] [--skip-lammps]
+    python benchmarks/chute.py [--steps 2000] [--repeat 3] [--peers DIR] [--skip-lammps]
 
 ``--peers DIR`` takes the files from another folder holding ``in.chute`` and ``data.chute``
 (or ``data.chute.gz``); LAMMPS gets the data file decompressed in a temporary folder.
 
 Each grainflow figure is measured in a fresh subprocess (so the thread count is set before
-numba starts) after 50 warm-up steps; LAMMPS's figure is its own "Loop time".
+numba starts) after 50 warm-up steps; LAMMPS's figure is its own "Loop time". This
+machine's speed drifts by 15-25 % within minutes, so each figure is the median of
+``--repeat`` rounds, and each ratio the median of the ratios of a grainflow run and a
+LAMMPS run taken back to back (which of the two goes first alternates between rounds).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import os
 import platform
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -175,6 +179,9 @@ def main(argv: list[str] | None = None) -> dict:
                     help="folder with in.chute and data.chute[.gz] (default: the copies "
                          "shipped in grainflow/data/chute)")
     ap.add_argument("--layer", default="omp", help="numba threading layer (omp, tbb, workqueue)")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="rounds of each measurement; the figures are medians, a ratio the "
+                         "median of the ratios of runs taken back to back")
     ap.add_argument("--skip-lammps", action="store_true")
     ap.add_argument("--skip-scaling", action="store_true")
     args = ap.parse_args(argv)
@@ -189,20 +196,28 @@ def main(argv: list[str] | None = None) -> dict:
     results: dict = {"date": time.strftime("%Y-%m-%d"), "machine": cpu_model(),
                      "cores": os.cpu_count(), "steps": args.steps, "threading_layer": LAYER}
     results["startup_s"] = startup_seconds()
-    g1 = run_grainflow(data, args.steps, 1)
-    g2 = run_grainflow(data, args.steps, 2)
-    results["grainflow_1"] = g1["psps"]
-    results["grainflow_2"] = g2["psps"]
+    runs: dict[str, list[dict]] = {}
+    for r in range(args.repeat):
+        # each worker count: grainflow and LAMMPS back to back, the first of the two
+        # alternating between rounds, so that a drift of the machine's speed hits both
+        for w in (1, 2):
+            pair = [("grainflow", lambda w=w: run_grainflow(data, args.steps, w))]
+            if not args.skip_lammps:
+                pair.append(("lammps", lambda w=w: run_lammps(data, deck, args.steps, w)))
+            for code, run in (pair if r % 2 == 0 else pair[::-1]):
+                runs.setdefault(f"{code}_{w}", []).append(run())
+    g1 = runs["grainflow_1"][0]
+    for key, values in runs.items():
+        results[key] = statistics.median(v["psps"] for v in values)
     results["bytes_per_particle"] = g1["bytes_per_particle"]
     results["list_builds"] = g1["builds"]
     if not args.skip_lammps:
-        l1 = run_lammps(data, deck, args.steps, 1)
-        l2 = run_lammps(data, deck, args.steps, 2)
-        results["lammps_1"] = l1["psps"]
-        results["lammps_2"] = l2["psps"]
-        results["ratio_1"] = g1["psps"] / l1["psps"]
-        results["ratio_2"] = g2["psps"] / l2["psps"]
-        results["lammps_mbytes_per_rank"] = l1["mbytes_per_rank"]
+        for w in (1, 2):
+            paired = [g["psps"] / lam["psps"] for g, lam in zip(runs[f"grainflow_{w}"],
+                                                               runs[f"lammps_{w}"])]
+            results[f"ratio_{w}"] = statistics.median(paired)
+            results[f"ratios_{w}"] = paired
+        results["lammps_mbytes_per_rank"] = runs["lammps_1"][0]["mbytes_per_rank"]
     if not args.skip_scaling:
         scaling = {}
         for label, size in (("8k", "quarter"), ("32k", "1x1"), ("128k", "2x2")):
@@ -215,6 +230,10 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"chute benchmark, {args.steps} steps, {results['machine']} ({results['cores']} cores), "
           f"numba threading layer {LAYER}")
     print_speed_table(results, (1, 2))
+    for w in (1, 2):
+        if f"ratios_{w}" in results:
+            print(f"ratio on {w} worker(s), each round: "
+                  + " ".join(f"{v:.2f}" for v in results[f"ratios_{w}"]))
     if "scaling_2_threads" in results:
         for label, v in results["scaling_2_threads"].items():
             if label != "spread":

