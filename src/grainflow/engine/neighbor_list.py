@@ -137,11 +137,9 @@ class NeighborList:
 
     def wrap(self, state: ParticleState, geom: ListGeometry) -> None:
         """Fold positions on periodic axes back into the box; count the image shifts."""
-        for a in np.nonzero(geom.periodic)[0]:
-            shift = np.floor((state.x[:, a] - geom.lo[a]) / geom.length[a])
-            if np.any(shift != 0):
-                state.x[:, a] -= shift * geom.length[a]
-                state.image[:, a] += shift.astype(np.int64)
+        if geom.periodic.any():
+            for_threads_now(nk.wrap_periodic)(state.x, state.image, geom.lo, geom.length,
+                                              geom.periodic)
 
     def cell_order(self, state: ParticleState, geom: ListGeometry, reach: float) -> Cells:
         """Cell coordinates, linear keys and the key-sorted particle order (:class:`Cells`).

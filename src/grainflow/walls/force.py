@@ -81,8 +81,11 @@ def _wall_loop(table, wall_type, acts_on, kinds, params, shift, wall_v, x, v, om
     """
     nw = kinds.shape[0]
     nh = hist.shape[1]
+    unw = np.uint64(nw)
     for k in prange(visit.shape[0]):
-        i = visit[k]
+        # unsigned indices skip numba's wraparound of negative ones at every access
+        # (:mod:`grainflow.kernels.pair_loop`); mixed with signed ones numba would give floats
+        i = np.uint64(visit[k])
         if frozen[i] or not acts_on[ptype[i]]:
             continue
         ri = radius[i]
@@ -96,7 +99,7 @@ def _wall_loop(table, wall_type, acts_on, kinds, params, shift, wall_v, x, v, om
         t2 = 0.0
         hit = False
         for w in range(nw):
-            slot = i * nw + w
+            slot = i * unw + np.uint64(w)
             p0 = x[i, 0] - shift[w, 0]
             p1 = x[i, 1] - shift[w, 1]
             p2 = x[i, 2] - shift[w, 2]
