@@ -320,6 +320,51 @@ def test_history_kernels_directly():
     np.testing.assert_array_equal(out, [[1, 1, 1, 1], [0, 0, 0, 0], [2, 2, 2, 2]])
 
 
+def _random_half_list(rng, n, width):
+    """A random half list over ``n`` particles (rows ascending, ``i < j``) as CSR."""
+    rows = [np.sort(rng.choice(np.arange(i + 1, n), size=min(width, n - i - 1), replace=False))
+            if i < n - 1 else np.zeros(0, dtype=np.int64) for i in range(n)]
+    rows = [r[rng.uniform(size=r.shape[0]) < 0.6] for r in rows]
+    ptr = np.r_[0, np.cumsum([r.shape[0] for r in rows])].astype(np.int64)
+    return ptr, np.concatenate(rows).astype(np.int64)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_history_carried_through_a_resort_matches_a_lookup_of_every_pair(seed):
+    """carry_history_permuted (scattered from the old pairs with a history) gives every new
+    pair what a dictionary of the old pairs, re-expressed in the new indices, holds: the
+    flipped components change sign where the two members swap order, pairs new or with an
+    all-zero history get zeros, and ``active`` flags exactly the non-zero ones. The new list
+    shares only some pairs with the old one, and stale output buffers are overwritten."""
+    rng = np.random.default_rng(seed)
+    n = 60
+    old_ptr, old_nbr = _random_half_list(rng, n, 8)
+    hist = rng.normal(size=(old_nbr.shape[0], 4))
+    hist[rng.uniform(size=old_nbr.shape[0]) < 0.4] = 0.0  # out of contact
+    flip = np.array([-1.0, -1.0, -1.0, 1.0])
+    new_to_old = rng.permutation(n)
+    new_ptr, new_nbr = _random_half_list(rng, n, 8)
+    old_to_new = np.empty(n, dtype=np.int64)
+    old_to_new[new_to_old] = np.arange(n)
+    carried = {}
+    for p in range(n):
+        for s in range(old_ptr[p], old_ptr[p + 1]):
+            a, b = old_to_new[p], old_to_new[old_nbr[s]]
+            carried[(min(a, b), max(a, b))] = hist[s] if a < b else flip * hist[s]
+    new_hist = np.full((new_nbr.shape[0], 4), np.nan)
+    active = np.full(new_nbr.shape[0], 7, dtype=np.uint8)
+    nk.carry_history_permuted(old_ptr, old_nbr, hist, new_to_old, flip, new_ptr, new_nbr,
+                              new_hist, active)
+    shared = 0
+    for a in range(n):
+        for k in range(new_ptr[a], new_ptr[a + 1]):
+            want = carried.get((a, int(new_nbr[k])), np.zeros(4))
+            shared += (a, int(new_nbr[k])) in carried
+            np.testing.assert_array_equal(new_hist[k], want)
+            assert active[k] == int(np.any(want != 0.0))
+    assert 0 < shared < new_nbr.shape[0] and active.sum() > 0
+
+
 @pytest.mark.parametrize("dim, periodic, lengths", CASES)
 def test_rows_that_reach_across_a_periodic_boundary_are_flagged(dim, periodic, lengths):
     """The pair loop skips the minimum image in rows without a pair across a boundary; a row
