@@ -119,3 +119,77 @@ def test_the_old_soft_friction_key_points_to_its_new_name() -> None:
                                           r"harmonic/kinetic/none/none; it belongs to history "
                                           r"\(tangential\); did you mean 'mu_k'\?"):
         load_config(_config({"law": "soft", "epsilon": 1.0, "mu": 0.5}))
+
+
+# --- a unit that follows an option: the harmonic epsilon (Param.dimension_by) -------------
+def _contact_errors(contact: dict) -> list[str]:
+    with pytest.raises(ConfigError) as info:
+        load_config(_config(contact))
+    return info.value.messages
+
+
+def test_harmonic_epsilon_is_a_force_with_epsilon_scales_diameter() -> None:
+    """With ``epsilon_scales = "diameter"`` (eps_mn = epsilon sigma_mn) epsilon is a force."""
+    config = load_config(_config({"law": "soft", "epsilon_scales": "diameter",
+                                  "epsilon": "2 N"}))
+    assert config.contact.entry(0, 0)[1] == {"epsilon_scales": "diameter", "epsilon": 2.0}
+    law = build_simulation(config).interactions[0].law
+    assert law.row(0, 1)["epsilon"] == 2.0 and law.row(0, 1)["epsilon_scales"] == 1.0
+    config = load_config(_config({"law": "soft", "epsilon": "100 nN",
+                                  "epsilon_scales": "diameter"}))  # order does not matter
+    assert config.contact.entry(0, 0)[1]["epsilon"] == pytest.approx(1e-7)
+    (message,) = _contact_errors({"law": "soft", "epsilon_scales": "diameter",
+                                  "epsilon": "2 J"})
+    assert message.startswith("contact.epsilon: '2 J' has dimension energy, expected force"), \
+        message
+    assert "with epsilon_scales = 'diameter', epsilon is a force" in message, message
+
+
+def test_harmonic_epsilon_is_an_energy_with_epsilon_scales_constant() -> None:
+    for given in ({"epsilon_scales": "constant"}, {}):  # "constant" is the default
+        config = load_config(_config({"law": "soft", "epsilon": "2 J", **given}))
+        assert config.contact.entry(0, 0)[1]["epsilon"] == 2.0
+        (message,) = _contact_errors({"law": "soft", "epsilon": "2 N", **given})
+        assert message.startswith("contact.epsilon: '2 N' has dimension force, expected "
+                                  "energy"), message
+        assert "with epsilon_scales = 'constant', epsilon is an energy" in message, message
+    # a bare number has no unit to check (reduced units), with either option
+    for scales in ("constant", "diameter"):
+        config = load_config(_config({"law": "soft", "epsilon": 2, "epsilon_scales": scales}))
+        assert config.contact.entry(0, 0)[1]["epsilon"] == 2.0
+
+
+def test_an_override_that_changes_epsilon_scales_checks_the_inherited_epsilon_again() -> None:
+    (message,) = _contact_errors({"law": "soft", "epsilon": "2 J",
+                                  "pairs": [{"types": [0, 1], "epsilon_scales": "diameter"}]})
+    assert message.startswith("contact.pairs[0].epsilon: '2 J' has dimension energy, "
+                              "expected force"), message
+    assert "inherited from [contact]" in message, message
+    config = load_config(_config({"law": "soft", "epsilon": "2 J", "pairs": [
+        {"types": [0, 1], "epsilon_scales": "diameter", "epsilon": "3 nN"},
+        {"types": [1, 1], "mu_k": 0.2}]}))
+    assert config.contact.entry(0, 1)[1] == {"epsilon_scales": "diameter",
+                                             "epsilon": pytest.approx(3e-9)}
+    assert config.contact.entry(1, 1)[1] == {"epsilon": 2.0, "mu_k": 0.2}
+
+
+def test_the_reference_gives_the_unit_of_epsilon_for_each_option(tmp_path) -> None:
+    text = reference_markdown()
+    line = next(s for s in text.splitlines() if s.lstrip().startswith("- `epsilon` ("))
+    assert ('energy if `epsilon_scales = "constant"`, force if `epsilon_scales = "diameter"`'
+            in line), line
+    assert line in DOCS.read_text()  # docs/config.md holds it (regenerated)
+
+
+def test_dimension_by_must_name_a_choice_of_the_same_sub_model() -> None:
+    from grainflow.models.submodel import NormalModel, Param
+
+    eps = Param("epsilon", "x", dimension_by=("scales", {"a": "energy", "b": "force"}))
+    assert eps.dimension_for({"scales": "b"}) == "force"
+    with pytest.raises(TypeError, match="dimension_by"):
+        type("Bad", (NormalModel,), {"params": (eps,)})
+    with pytest.raises(TypeError, match="dimension_by"):
+        type("Bad", (NormalModel,), {"params": (
+            eps, Param("scales", "y", default="a", choices={"a": 0.0, "c": 1.0}))})
+    with pytest.raises(TypeError, match="dimension_by"):
+        Param("epsilon", "x", "energy", dimension_by=("scales", {"a": "energy"}))

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import difflib
 import sys
+from collections.abc import Collection
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -28,7 +29,7 @@ from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, StrictInt, crea
 from grainflow.units import parse_quantity
 from grainflow.models.base import ContactLaw
 from grainflow.models.registry import PRESETS, SUBMODELS, composition, submodel
-from grainflow.models.submodel import SLOTS, Param
+from grainflow.models.submodel import SLOTS, Param, SubModel
 
 __all__ = ["Contact", "ContactPair", "reference_markdown", "write_reference"]
 
@@ -114,18 +115,23 @@ class Contact(_ParamsBase):  # type: ignore[misc, valid-type]
             raise ValueError("law: missing; choose a preset (law = "
                              f"{' or '.join(repr(p) for p in PRESETS)}) or name the "
                              "sub-models (model = {normal = ...})")
-        base = _checked(base_models, self.given(), "")
+        base_given = self.given()
+        base = _checked(base_models, base_given, "")
         entries = {(-1, -1): (base_models, base)}
         for k, pair in enumerate(self.pairs):
             where = f"pairs[{k}]."
             models = pair.composition(base_models)
-            own = _checked(models, pair.given(), where)
+            own = pair.given()
             if models == base_models:
                 groups = {_group(models, n) for n in own} - {None}
-                inherited = {n: v for n, v in base.items() if _group(models, n) not in groups}
-                params = {**inherited, **own}
+                inherited = {n: v for n, v in base_given.items()
+                             if _group(models, n) not in groups}
+                # inherited values are checked again: a unit may depend on an option
+                # (Param.dimension_by) that this table chooses otherwise
+                params = _checked(models, {**inherited, **own}, where,
+                                  set(inherited) - set(own))
             else:  # another law: nothing of [contact]'s parameters applies
-                params = own
+                params = _checked(models, own, where)
             _complete(models, params, where)
             a, b = sorted(pair.types)
             if (a, b) in entries:
@@ -145,12 +151,19 @@ class Contact(_ParamsBase):  # type: ignore[misc, valid-type]
         return {k: dict(v[1]) for k, v in self._entries.items()}
 
 
-def _slot_param(models: dict[str, str], name: str) -> Param | None:
+def _owner(models: dict[str, str], name: str) -> tuple[type[SubModel], Param] | None:
+    """The sub-model of a composition that has the parameter ``name``, and the parameter."""
     for slot in SLOTS:
-        for p in submodel(slot, models[slot]).params:
+        cls = submodel(slot, models[slot])
+        for p in cls.params:
             if p.name == name:
-                return p
+                return cls, p
     return None
+
+
+def _slot_param(models: dict[str, str], name: str) -> Param | None:
+    found = _owner(models, name)
+    return found[1] if found is not None else None
 
 
 def _group(models: dict[str, str], name: str) -> str | None:
@@ -158,12 +171,17 @@ def _group(models: dict[str, str], name: str) -> str | None:
     return p.group if p is not None else None
 
 
-def _checked(models: dict[str, str], given: dict[str, Any], where: str) -> dict[str, Any]:
-    """Parse units and limits of the given parameters of a composition."""
-    out: dict[str, Any] = {}
-    for name, value in given.items():
-        p = _slot_param(models, name)
-        if p is None:
+def _checked(models: dict[str, str], given: dict[str, Any], where: str,
+             inherited: Collection[str] = ()) -> dict[str, Any]:
+    """Parse units and limits of the given parameters of a composition (as written: numbers,
+    quantities with units, option names). The options are checked first: a parameter whose
+    dimension depends on one (:attr:`Param.dimension_by`) is parsed in the dimension of the
+    option in effect, the given one or the default. ``inherited``: the names whose values
+    come from ``[contact]`` (so said in a message)."""
+    owner = {}
+    for name in given:
+        found = _owner(models, name)
+        if found is None:
             owners = ", ".join(f"{m} ({s})" for s, m, _ in _all_params()[name])
             own = [q.name for s in SLOTS for q in submodel(s, models[s]).params]
             close = difflib.get_close_matches(name, own, n=1)
@@ -171,15 +189,51 @@ def _checked(models: dict[str, str], given: dict[str, Any], where: str) -> dict[
             raise ValueError(f"{where}{name}: not a parameter of the law "
                              f"{'/'.join(models[s] for s in SLOTS)}; it belongs to "
                              f"{owners}{hint}")
+        owner[name] = found
+    options: dict[str, Any] = {}
+    for name, value in given.items():
+        if owner[name][1].choices is not None:
+            try:
+                owner[name][1].check(value)
+            except ValueError as err:
+                raise ValueError(f"{where}{err}") from None
+            options[name] = value
+    out: dict[str, Any] = {}
+    for name, value in given.items():
+        cls, p = owner[name]
+        if p.choices is not None:
+            out[name] = value
+            continue
         try:
-            if p.choices is not None:
-                p.check(value)
-                out[name] = value
-            else:
-                out[name] = p.check(parse_quantity(value, p.dimension, field=name))
+            x = parse_quantity(value, p.dimension_for(cls.options(options)), field=name)
+        except ValueError as err:
+            origin = (f"; {name} = {value!r} is inherited from [contact]: give {name} in "
+                      "this table" if name in inherited else "")
+            raise ValueError(f"{where}{err}{_option_note(cls, p, options)}{origin}") from None
+        try:
+            out[name] = p.check(x)
         except ValueError as err:
             raise ValueError(f"{where}{err}") from None
     return out
+
+
+def _option_note(cls: type[SubModel], p: Param, options: dict[str, Any]) -> str:
+    """For a parameter whose dimension depends on an option: which one applies and why
+    (``"; with epsilon_scales = 'diameter', epsilon is a force (with 'constant', an
+    energy)"``); "" for any other."""
+    if p.dimension_by is None:
+        return ""
+    choice, dimensions = p.dimension_by
+    chosen = cls.options(options)[choice]
+    others = ", ".join(f"with {o!r}, {_a(d)}" for o, d in dimensions.items() if o != chosen)
+    return (f"; with {choice} = {chosen!r}, {p.name} is {_a(dimensions[chosen])}"
+            + (f" ({others})" if others else ""))
+
+
+def _a(dimension: str | None) -> str:
+    """``"a force"``, ``"an energy"``, ``"a number"``."""
+    word = dimension or "number"
+    return f"{'an' if word[0] in 'aeiou' else 'a'} {word}"
 
 
 def _complete(models: dict[str, str], params: dict[str, Any], where: str) -> None:
@@ -214,13 +268,23 @@ def reference_markdown() -> str:
             lines.append(f"- `\"{name}\"`: {cls.summary} (`{cls.__module__}`)")
             for p in cls.params:
                 unit = (" / ".join(f'`"{c}"`' for c in p.choices) if p.choices is not None
-                        else p.dimension or "number")
+                        else _reference_dimension(p))
                 bound = "" if p.choices is not None else (
-                    f", {'>' if p.strict else '>='} {p.lower:g}"
+                    f"{', ' if p.dimension_by is None else '; '}"
+                    f"{'>' if p.strict else '>='} {p.lower:g}"
                     + (f", <= {p.upper:g}" if p.upper != float("inf") else ""))
                 lines.append(f"  - `{p.name}` ({unit}{bound}; default {p.describe_default()}):"
                              f" {p.description}")
     return "\n".join(lines) + "\n"
+
+
+def _reference_dimension(p: Param) -> str:
+    """The dimension of a parameter for the reference: one, or one per option of the choice
+    it depends on (``energy if `epsilon_scales = "constant"`, force if ...``)."""
+    if p.dimension_by is None:
+        return p.dimension or "number"
+    choice, dimensions = p.dimension_by
+    return ", ".join(f'{d or "number"} if `{choice} = "{o}"`' for o, d in dimensions.items())
 
 
 def write_reference(path: str | Path) -> bool:

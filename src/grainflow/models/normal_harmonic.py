@@ -16,6 +16,10 @@ as a partner of radius 0 (``sigma = r_m``, i.e. the seed's ``(eps_w/2)(1 - 2 d_w
   (pair force ``spK (1 - r/sigma_mn)``; docs/hopper_study.md, "Second pass"); ``epsilon`` is then a force, and in units of sigma_avg it is
   the energy scale of a pair of mean diameter sigma_avg. For a wall partner
   ``sigma = r_m``: ``epsilon_w,m = epsilon r_m``.
+
+So ``epsilon``'s dimension follows ``epsilon_scales`` (``Param.dimension_by``): a config
+table with units writes an energy (``"2 J"``) with ``"constant"`` and a force (``"2 nN"``)
+with ``"diameter"``, and the other is refused.
 """
 
 from __future__ import annotations
@@ -38,7 +42,9 @@ class Harmonic(NormalModel):
     name = "harmonic"
     summary = ("U = (epsilon/2)(1 - r/sigma)^2, sigma = r_i + r_j (SPEC M3; seed 003 eq. 4)")
     params = (Param("epsilon", "energy scale of the harmonic repulsion (with "
-                    "epsilon_scales = 'diameter': per unit sigma_mn, a force)", "energy",
+                    "epsilon_scales = 'diameter': per unit sigma_mn, a force)",
+                    dimension_by=("epsilon_scales", {"constant": "energy",
+                                                     "diameter": "force"}),
                     lower=0.0, strict=True, group="normal"),
               Param("epsilon_scales", "'constant': one epsilon per type pair (seed 003 eq. 4); "
                     "'diameter': epsilon_mn = epsilon * sigma_mn, the authors' code (force "

@@ -45,8 +45,13 @@ class Param:
 
     ``dimension``: the physical dimension of the value (``"stiffness"``, ``"time"`` ...; see
     :mod:`grainflow.units`) so that config files may write units; None for numbers
-    whose unit depends on a convention. ``default``: a number, a function of the other
-    parameters of the row (e.g. ``kt = 2/7 kn``), or None for a required parameter.
+    whose unit depends on a convention. ``dimension_by``: instead of ``dimension``, for a
+    value whose dimension depends on the option chosen for another parameter of the same
+    sub-model (one with ``choices``): ``(that parameter's name, {option: dimension})``, one
+    entry per option (the harmonic ``epsilon`` is an energy with ``epsilon_scales =
+    "constant"``, a force with ``"diameter"``); :meth:`dimension_for` gives the one that
+    applies. ``default``: a number, a function of the other parameters of the row (e.g.
+    ``kt = 2/7 kn``), or None for a required parameter.
     ``lower``/``strict``: the value must be ``> lower`` (strict) or ``>= lower``;
     ``upper`` likewise ``<= upper``. ``choices``: a named option stored as a number (e.g.
     ``{"mass": 1.0, "absolute": 0.0}``). ``group``: in a per-type-pair override, giving one
@@ -66,6 +71,21 @@ class Param:
     choices: dict[str, float] | None = None
     group: str | None = None
     column: bool = True
+    dimension_by: tuple[str, dict[str, str | None]] | None = None
+
+    def __post_init__(self) -> None:
+        if self.dimension_by is not None and (self.dimension is not None
+                                              or self.choices is not None):
+            raise TypeError(f"Param {self.name!r}: dimension_by replaces dimension and does "
+                            "not apply to a parameter with choices")
+
+    def dimension_for(self, options: dict[str, str]) -> str | None:
+        """The dimension that applies given the options in effect of the sub-model's choice
+        parameters (name -> option name, defaults included: :meth:`SubModel.options`)."""
+        if self.dimension_by is None:
+            return self.dimension
+        choice, dimensions = self.dimension_by
+        return dimensions[options[choice]]
 
     def check(self, value: Any) -> float:
         """The value as a table number; ValueError naming the parameter if invalid."""
@@ -112,6 +132,28 @@ class SubModel:
     history_size: ClassVar[int] = 0
     #: Per history column: the factor applied when the roles of i and j swap.
     history_flip: ClassVar[tuple[float, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Check that every ``dimension_by`` names a choice parameter of this sub-model and
+        gives a dimension for each of its options."""
+        super().__init_subclass__(**kwargs)
+        params = {p.name: p for p in cls.params}
+        for p in cls.params:
+            if p.dimension_by is None:
+                continue
+            choice, dimensions = p.dimension_by
+            options = params[choice].choices if choice in params else None
+            if options is None or set(dimensions) != set(options):
+                raise TypeError(f"{cls.__name__}.{p.name}: dimension_by must name a parameter "
+                                f"of {cls.__name__} with choices and give a dimension for each "
+                                f"of its options; got {p.dimension_by!r}")
+
+    @classmethod
+    def options(cls, params: dict[str, Any]) -> dict[str, str]:
+        """The option in effect of each choice parameter: its option name in ``params`` (as
+        written in a config table), else its default."""
+        return {p.name: params.get(p.name, p.default) for p in cls.params
+                if p.choices is not None}
 
     @classmethod
     def columns(cls) -> tuple[Param, ...]:
