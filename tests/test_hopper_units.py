@@ -105,3 +105,51 @@ def test_free_fall_and_terminal_drag_speed(system: str) -> None:
     sim.run(40000)
     terminal = -sim.state.v[0, 1] * length / time * UNITS.time / UNITS.length
     assert terminal == pytest.approx(1.0 / UNITS.gamma(0.1), rel=1e-6)
+
+
+def test_3d_branch_units() -> None:
+    """The 3D branch (masses pi r^2, g assumed 0.05): our mass unit is 1.5 L^2 code masses,
+    its spK = 100 is E_sp = 926 and mu = 10 would be mu/mu0 = 22.7."""
+    from grainflow.scenarios.hopper_units import AUTHORS_3D_SPK, AUTHORS_3D_UNITS as U3
+
+    assert U3.time == pytest.approx(math.sqrt(1.2 / 0.05))
+    assert U3.mass == pytest.approx(1.5 * 1.2**2)
+    # the sigma_avg sphere: code mass pi (0.6)^2 is our pi/6 mass units
+    assert math.pi * 0.6**2 / U3.mass == pytest.approx(math.pi / 6.0)
+    assert U3.pair_force_scale(AUTHORS_3D_SPK) == pytest.approx(925.9, abs=0.1)
+    assert U3.mu(10.0) == pytest.approx(22.68, abs=0.01)
+
+
+def test_a_3d_collision_of_mean_grains_is_the_same_in_both_unit_systems() -> None:
+    """Two sigma_avg spheres (where the 3D branch's mass pi r^2 and our rho pi sigma^3/6
+    agree exactly after conversion) collide and slide under gravity, drag and tangential
+    friction in the 3D branch's units and in ours."""
+    from grainflow.scenarios.hopper_units import AUTHORS_3D_SPK, AUTHORS_3D_UNITS as U3
+
+    def pair(scale: float, mass: float, g: float, eps: float, mu: float, rate: float,
+             dt: float) -> Simulation:
+        box = Box(lo=np.full(3, -50.0) * scale, hi=np.full(3, 50.0) * scale,
+                  periodic=(False, False, False))
+        st = ParticleState(3, box)
+        x = np.array([[0.0, 0.0, 0.0], [1.15, 0.3, 0.1]]) * scale
+        st.add_particles(x, 0.6 * scale, mass=mass)
+        st.v[:] = np.array([[0.02, 0.01, 0.0], [-0.02, 0.0, 0.005]])
+        law = SoftLaw()
+        law.set_pair(0, 0, epsilon=eps, epsilon_scales="diameter", mu_k=mu,
+                     kinetic_on="tangential")
+        sim = Simulation(st, dt, law)
+        sim.add_force(Gravity([0.0, 0.0, -g]))
+        sim.add_force(Drag(rate, per_mass=True))
+        return sim
+
+    a = pair(1.0, math.pi * 0.6**2, U3.g, AUTHORS_3D_SPK, 3.0, 0.05, 0.005)
+    velocity_unit = U3.length / U3.time
+    b = pair(1.0 / U3.length, math.pi / 6.0, 1.0, U3.pair_force_scale(AUTHORS_3D_SPK),
+             U3.mu(3.0), U3.gamma(0.05), 0.005 / U3.time)
+    b.state.v[:] = a.state.v / velocity_unit
+    a.run(3000)
+    b.run(3000)
+    moved = np.linalg.norm(a.state.x - np.array([[0.0, 0.0, 0.0], [1.15, 0.3, 0.1]]), axis=1)
+    assert np.all(moved > 0.1)
+    np.testing.assert_allclose(b.state.x * U3.length, a.state.x, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(b.state.v * velocity_unit, a.state.v, rtol=1e-8, atol=1e-12)

@@ -32,11 +32,15 @@ bottom at angle theta_w (:class:`~grainflow.walls.Hopper2D`) with a centred orif
 infinite cylinder of diameter W (default 30 sigma_s = 25 sigma_avg) with a flat base with a
 circular orifice of diameter w (:class:`~grainflow.walls.PlateWithHole`).
 
-Initialisation (seed Sec. 2.4): grains are placed at random without overlap (random
-sequential addition at packing fraction ``fill_fraction``) in the hopper above the bottom
+Initialisation (seed Sec. 2.4), ``initial_packing = "sequential"``: grains are placed at
+random without overlap (random sequential addition at packing fraction ``fill_fraction``) in
+the hopper above the bottom
 (with sloped walls, inside the funnel from the orifice up: :class:`FunnelRegion`), with zero
 velocity; FIRE (``run.minimize = true``, gravity off) removes any overlap left
-(with walls included); then gravity is on at t = 0. Continuous flow and crossing events:
+(with walls included); then gravity is on at t = 0. ``initial_packing = "inflated"`` (the
+authors' code, the default of their convention) starts dense instead: random positions at
+packing fraction 0.6 relaxed by FIRE with radii x 1.2, then restored
+(:mod:`grainflow.scenarios.hopper_packing`). Continuous flow and crossing events:
 :mod:`grainflow.scenarios.hopper_reinsertion`.
 
 Deformable particles (SPEC M6, ``particles = "dp_rough" | "dp_smooth"``, 2D only; docs/dp.md):
@@ -67,10 +71,12 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 from grainflow.scenarios import Scenario, register
 from grainflow.scenarios.hopper_reinsertion import HopperReinsertion
 from grainflow.scenarios.hopper_rings import RingReinsertion
+from grainflow.scenarios.hopper_packing import inflated_packing, uniform_positions
 from grainflow.scenarios.hopper_units import AUTHORS_CODE
 from grainflow.engine.minimize import relax
 
 if TYPE_CHECKING:
+    from grainflow.engine.minimize import FireResult
     from grainflow.engine.simulation import Simulation
 
 __all__ = ["DIAMETER_RATIO", "HopperSection", "LIMIT_MU", "LIMIT_ZETA", "SIGMA_SMALL",
@@ -105,14 +111,15 @@ CONVENTIONS: dict[str, dict[str, Any]] = {
     "grainflow": {"friction_on": "full", "drag_on": "grain", "stiffness": "constant",
                   "lambda_path": "interpolate", "reinsertion": "pile", "count_at": "orifice",
                   "reinsert_depth": 2.0, "lid_time": 0.0, "E_sp": 100.0, "E_w": 1.0e4,
-                  "mu_limit": LIMIT_MU, "drag_limit": None, "drag_factor": DRAG_FACTOR},
+                  "mu_limit": LIMIT_MU, "drag_limit": None, "drag_factor": DRAG_FACTOR,
+                  "initial_packing": "sequential"},
     "authors": {"friction_on": "tangential", "drag_on": "mass", "stiffness": "diameter",
                 "lambda_path": "authors", "reinsertion": "lanes", "count_at": "reinsertion",
                 "reinsert_depth": AUTHORS_CODE.count_depth, "lid_time": AUTHORS_CODE.lid_time,
                 "E_sp": AUTHORS_CODE.units.pair_force_scale(AUTHORS_CODE.spK),
                 "E_w": AUTHORS_CODE.units.wall_energy(AUTHORS_CODE.K_w),
                 "mu_limit": AUTHORS_CODE.units.mu(AUTHORS_CODE.mu_limit), "drag_limit": None,
-                "drag_factor": 1.0},
+                "drag_factor": 1.0, "initial_packing": "inflated"},
 }
 
 
@@ -182,8 +189,18 @@ class HopperSection(BaseModel):
     friction_on: Literal["full", "tangential"] | None = Field(
         None, description="kinetic friction on the 'full' relative velocity (seed eq. 6) or "
         "its 'tangential' part (the authors' code)")
-    fill_fraction: float = Field(0.45, gt=0, lt=0.6, description="packing fraction of the "
-                                 "initial random fill (2D; 3D uses 0.6 of it)")
+    initial_packing: Literal["sequential", "inflated"] | None = Field(
+        None, description="the start before gravity is on: 'sequential' (random sequential "
+        "addition at fill_fraction, nothing overlapping) or 'inflated' (random positions at "
+        "fill_fraction relaxed by FIRE with every radius x inflate, then restored: the "
+        "authors' code, a dense start); default sequential (grainflow), inflated (authors); "
+        "deformable rings are always filled sequentially")
+    inflate: float = Field(1.2, gt=1, le=2, allow_inf_nan=False, description="initial_packing "
+                           "= 'inflated': radius factor during its FIRE (the authors' 1.2)")
+    fill_fraction: float | None = Field(None, gt=0, lt=1, allow_inf_nan=False,
+                                        description="packing fraction of the initial fill; "
+                                        "default 0.45 sequential (below 0.6; 3D uses 0.6 of "
+                                        "it), 0.6 inflated (2D, the authors'; 3D 0.35)")
     lid_time: float | None = Field(None, ge=0, allow_inf_nan=False,
                                    description="the orifice is closed by a lid until this "
                                    "time (t0); default 0 (grainflow), 0.31 = 1200 code steps "
@@ -235,6 +252,16 @@ class HopperSection(BaseModel):
         if chosen["drag_on"] == "mass" and self.drag_factor is not None:
             raise ValueError("drag_factor: applies to drag_on = 'grain' only; with drag_on = "
                              "'mass' give the rate gamma through zeta or lam")
+        if self.particles != "sp" and self.initial_packing == "inflated":
+            raise ValueError("initial_packing: 'inflated' is for soft grains (particles = "
+                             "'sp'); deformable rings are filled sequentially")
+        packing = chosen["initial_packing"] if self.particles == "sp" else "sequential"
+        if packing == "sequential" and "inflate" in self.model_fields_set:
+            raise ValueError("inflate: applies to initial_packing = 'inflated' only")
+        if packing == "sequential" and (self.fill_fraction or 0.0) >= 0.6:
+            raise ValueError(f"fill_fraction: {self.fill_fraction} is past what random "
+                             "sequential addition reaches; give a value below 0.6, or "
+                             "initial_packing = 'inflated' for a denser start")
         if chosen["reinsertion"] == "lanes" and self.reinsert_bulk_contacts is not None:
             raise ValueError("reinsert_bulk_contacts: applies to reinsertion = 'pile' only "
                              "(the lanes rule places a grain above the lane's highest grain)")
@@ -347,7 +374,9 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     extent = _ring_extent(section) if dp else 1.0  # rings: see _ring_extent
     radii = sizes.radii(n, rng) * extent
     r_max = sizes.max_radius * extent
-    fill = section.fill_fraction if dim == 2 else 0.6 * section.fill_fraction
+    options = section.resolved_options()
+    packing = "sequential" if dp else options["initial_packing"]
+    fill = _fill_fraction(section, packing, dim)
     total = float(particle_volume(radii, dim).sum())
     w = section.orifice_width
     if dim == 2:
@@ -370,9 +399,15 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         region = CylinderRegion((0.0, 0.0), radius - r_max, lo=r_max, hi=top, axis=2)
         box = Box(lo=np.array([-radius, -radius, -10.0]), hi=np.array([radius, radius, top]),
                   periodic=(False, False, False))
-    x, r = random_fill(region, n, radii, rng, max_attempts=100_000)
+    if packing == "sequential":
+        x, r = random_fill(region, n, radii, rng, max_attempts=100_000)
+    else:  # the authors' dense start: hopper_packing
+        r = radii
+        closed = [*walls, _lid_wall(dim, w), _cap_wall(dim, top)]
+        x = inflated_packing(uniform_positions(region, r, rng), r, _grain_types(r), closed,
+                             options["E_sp"], section.inflate, dim=dim, box=box).x
     r = r / extent
-    types = (r > 0.5).astype(np.int32)  # 0 small, 1 large
+    types = _grain_types(r)
     state = ParticleState(dim, box)
     if dp:
         add_rings(state, x, np.pi * r**2, n_vertices=section.n_vertices, type=types,
@@ -381,7 +416,6 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     else:
         state.add_particles(x, r, density=1.0, type=types)
 
-    options = section.resolved_options()
     friction = dissipation(section, dim)
     scales = "constant" if dp else options["stiffness"]
     # with 'diameter' the wall partner's sigma is r_m, so eps_w,m = epsilon r_m = E_w sigma_m
@@ -445,6 +479,39 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         sim.add_updater(HopperLid(sim, lid, options["lid_time"]),
                         max(1, math.ceil(options["lid_time"] / sim.dt)))
     return sim
+
+
+def _grain_types(r: np.ndarray) -> np.ndarray:
+    """Particle types of grains of radii ``r`` (sigma_avg = 1): 0 small, 1 large."""
+    return (r > 0.5).astype(np.int32)
+
+
+def _fill_fraction(section: HopperSection, packing: str, dim: int) -> float:
+    """Packing fraction of the initial fill: ``fill_fraction`` or the packing's default;
+    sequential fills in 3D take 0.6 of it (random sequential addition of spheres jams near
+    0.38). An inflated fill must stay below 1 at the inflated radii."""
+    if packing == "sequential":
+        fill = 0.45 if section.fill_fraction is None else section.fill_fraction
+        return fill if dim == 2 else 0.6 * fill
+    fill = section.fill_fraction
+    if fill is None:
+        fill = 0.6 if dim == 2 else 0.35
+    if fill * section.inflate**dim >= 1.0:
+        raise ValueError(f"hopper.fill_fraction: {fill:g} with inflate = {section.inflate:g} "
+                         f"fills {fill * section.inflate**dim:.2f} of the hopper at the "
+                         f"inflated radii in {dim}D; lower fill_fraction or inflate so that "
+                         "fill_fraction * inflate^d stays below 1")
+    return fill
+
+
+def _cap_wall(dim: int, top: float) -> Any:
+    """A wall over the initial fill at height ``top``, facing down (closes the inflated
+    packing's FIRE: with gravity off nothing else holds the grains in)."""
+    from grainflow.walls import Plane
+
+    if dim == 2:
+        return Plane((0.0, top, 0.0), (0.0, -1.0, 0.0))
+    return Plane((0.0, 0.0, top), (0.0, 0.0, -1.0))
 
 
 def _ring_extent(section: HopperSection) -> float:
@@ -579,10 +646,11 @@ def hopper_segments(sim: "Simulation") -> list[tuple[tuple[float, float], tuple[
             if isinstance(f, WallForce) for w in f.walls if isinstance(w, Segment)]
 
 
-def prepare(sim: "Simulation") -> None:
+def prepare(sim: "Simulation") -> "FireResult":
     """Seed 003's initialisation: FIRE with gravity off (the same
-    :func:`~grainflow.engine.minimize.relax` that ``run.minimize = true`` applies)."""
-    relax(sim)
+    :func:`~grainflow.engine.minimize.relax` that ``run.minimize = true`` applies); returns
+    how FIRE ended."""
+    return relax(sim)
 
 
 # The builders' ``config`` is the validated grainflow.config.schema.RunConfig (typed Any:

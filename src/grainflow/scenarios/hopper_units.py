@@ -40,17 +40,25 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["AUTHORS_CODE", "CodeUnits", "AuthorsCode"]
+__all__ = ["AUTHORS_3D_SPK", "AUTHORS_3D_UNITS", "AUTHORS_CODE", "CodeUnits", "AuthorsCode"]
 
 
 @dataclass(frozen=True)
 class CodeUnits:
-    """The authors' 2D code units (module docstring): lengths in sigma_s, inertial mass
-    ``mass_factor`` times the area, weight ``g`` times the area."""
+    """The authors' code units (module docstring): lengths in sigma_s, inertial mass
+    ``mass_factor`` times the area pi r^2, weight ``g`` times the area.
+
+    ``dim = 3``: the authors' 3D branch gives its spheres the mass pi r^2 too (``mass_factor``
+    1 after its "bug fix"). Our spheres have the mass rho pi sigma^3/6, so our mass unit is set
+    by the sigma_avg grain (code mass pi sigma_avg^2/4 = our pi/6): M = 1.5 mass_factor L^2.
+    The two sizes' masses then differ by 1.4^3 in our model and 1.4^2 in the code's, which no
+    choice of units removes. The 3D branch's g is not known; 0.05, the 2D code's, is assumed.
+    """
 
     g: float = 0.05
     mass_factor: float = 16.0
     diameter_ratio: float = 1.4
+    dim: int = 2
 
     @property
     def length(self) -> float:
@@ -69,8 +77,9 @@ class CodeUnits:
 
     @property
     def mass(self) -> float:
-        """rho sigma_avg^2 in code mass (rho = mass_factor per unit area)."""
-        return self.mass_factor * self.length**2
+        """Our mass unit rho sigma_avg^d in code mass: mass_factor L^2 in 2D (rho =
+        mass_factor per unit area), 1.5 mass_factor L^2 in 3D (class docstring)."""
+        return self.mass_factor * self.length**2 * (1.0 if self.dim == 2 else 1.5)
 
     @property
     def force(self) -> float:
@@ -153,3 +162,8 @@ class AuthorsCode:
 
 #: The committed values of the authors' 2D code, with their conversion.
 AUTHORS_CODE = AuthorsCode()
+#: The units of the authors' 3D branch (masses pi r^2, g assumed 0.05; :class:`CodeUnits`):
+#: its spK = 100 is E_sp = 926, its mu = 10 would be mu/mu0 = 22.7.
+AUTHORS_3D_UNITS = CodeUnits(mass_factor=1.0, dim=3)
+#: The 3D branch's pair force scale spK.
+AUTHORS_3D_SPK = 100.0
