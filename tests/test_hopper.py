@@ -386,16 +386,17 @@ def test_authors_study_plan_builds_valid_sweeps() -> None:
     walls as stiff as its grains, the inclined hoppers the authors' mu, the probes change
     one thing each; the report's fits are free, bounded and (at the limits) fixed."""
     from grainflow.studies.hopper_authors import (AUTHORS_FULL, AUTHORS_REDUCED, MU_INCLINED,
-                                                  PROBES, Series, hard_name, sweep_specs,
-                                                  three_fits)
+                                                  PROBES, REPLICAS, Series, hard_name,
+                                                  sweep_specs, three_fits)
 
     for plan in (AUTHORS_REDUCED, AUTHORS_FULL):
         specs = sweep_specs(plan)
-        assert set(specs) == {"q2d", "q3d", "theta2d", *plan.probes,
+        assert set(specs) == {"q2d", "q3d", "theta2d", REPLICAS, *plan.probes,
                               *(hard_name(E) for E in plan.hard_E_sp)}
         for name, spec in specs.items():
             for point in spec.points():
-                hopper = point.config(spec.base)["hopper"]
+                config = point.config(spec.base)
+                hopper = config["hopper"]
                 assert hopper["convention"] == "authors"
                 if name.startswith("hard2d"):
                     assert hopper["E_w"] == hopper["E_sp"]
@@ -403,6 +404,10 @@ def test_authors_study_plan_builds_valid_sweeps() -> None:
                     assert hopper["mu_limit"] == pytest.approx(MU_INCLINED)
                 if name in PROBES:
                     assert hopper["lam"] == 0.0
+                if name == REPLICAS:  # the q2d limits again, with other seeds
+                    assert hopper["lam"] in (0.0, math.inf)
+                    assert config["run"]["seed"] in plan.replicate_seeds
+                    assert config["run"]["seed"] != 0
     widths = [3.0, 4.6, 6.2, 7.8, 9.4]
     q = [0.5 * (w - 1.0) ** 1.8 for w in widths]
     series = Series(w=widths, Q=q, Q_err=[0.01 * x for x in q])
@@ -525,3 +530,48 @@ def test_the_crossing_kernel_follows_the_rule_on_random_flags_and_heights() -> N
         due = np.flatnonzero((after == 1) & (h < orifice - depth * 2.0 * radius))
         got_crossed, got_due = crossings(flag, x, 1, orifice, depth * 2.0, radius)
         assert np.array_equal(got_crossed, crossed) and np.array_equal(got_due, due)
+
+
+def test_replicate_table_gives_each_seed_and_the_spread() -> None:
+    """The report's replicate table: q2d's fit as seed 0, each other seed's free fit, and
+    the mean and sample standard deviation of beta."""
+    from grainflow.studies.hopper_authors import Series, _replicate_table, three_fits
+
+    widths = [3.0, 4.6, 6.2, 7.8, 9.4, 10.6]
+
+    def series(beta: float) -> Series:
+        q = [0.5 * (w - 1.0) ** beta for w in widths]
+        return Series(w=widths, Q=q, Q_err=[0.01 * x for x in q])
+
+    fits = {"q2d": {(0.0, None, None): three_fits(series(1.8), 2, 0.0)}}
+    replicas = {(0.0, 1.0): series(1.6), (0.0, 2.0): series(1.7)}
+    text = "\n".join(_replicate_table(fits, replicas))
+    for seed, beta in ((0, "1.8"), (1, "1.6"), (2, "1.7")):
+        assert f"| 0 | {seed} | {beta} ± " in text
+    assert "| 0 | mean ± s.d. (3) | 1.7 ± 0.1 |" in text
+
+
+def test_height_table_gives_the_ratio_at_each_common_width() -> None:
+    from grainflow.studies.hopper_authors import Series, _height_table
+
+    base = Series(w=[3.0, 6.2], Q=[2.0, 8.0], Q_err=[0.1, 0.4])
+    tall = Series(w=[3.0, 6.2, 9.4], Q=[4.0, 16.0, 30.0], Q_err=[0.2, 0.8, 1.0])
+    text = "\n".join(_height_table({"q2d": {(0.0, None, None): base},
+                                    "friction_n3200": {(0.0, None, None): tall}}))
+    assert "| 3 | 2 ± 0.1 | 4 ± 0.2 | 2 ± 0.14 |" in text
+    assert "| 6.2 |" in text and "| 9.4 |" not in text
+    assert _height_table({"q2d": {(0.0, None, None): base}}) == []
+
+
+def test_regime_table_tells_a_viscous_law_from_beverloo() -> None:
+    """Q = 0.2 w^2 (a Stokes slit) fits beta = 2 exactly and beta = 3/2 badly."""
+    from grainflow.studies.hopper_authors import Series, _regime_table
+
+    widths = [3.0, 4.6, 6.2, 7.8, 9.4, 10.6]
+    q = [0.2 * w**2 for w in widths]
+    rows = _regime_table({"q2d": {(0.0, None, None): Series(w=widths, Q=q,
+                                                           Q_err=[0.01 * x for x in q])}})
+    viscous = next(r for r in rows if "(viscous)" in r)
+    beverloo = next(r for r in rows if "(Beverloo)" in r)
+    chi = [float(r.rstrip(" |").rsplit("|", 1)[1]) for r in (viscous, beverloo)]
+    assert chi[0] < 1e-6 < 1.0 < chi[1]

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from grainflow.scenarios.hopper_units import AUTHORS_CODE
+from grainflow.scenarios.hopper_units import AUTHORS_3D_SPK, AUTHORS_3D_UNITS, AUTHORS_CODE
 from grainflow.studies.hopper_results import Series, collect_series, fmt
 
 __all__ = ["AUTHORS_FULL", "AUTHORS_REDUCED", "AuthorsPlan", "FITS", "reproduce_authors",
@@ -57,6 +57,8 @@ class AuthorsPlan:
     lambdas_theta: tuple[float, ...]
     widths_probe: tuple[float, ...]
     probes: tuple[str, ...]
+    #: Seeds (besides q2d's 0) of replicate 2D series at the two limits, over widths_2d.
+    replicate_seeds: tuple[int, ...] = ()
     reductions: tuple[str, ...] = field(default=())
 
 
@@ -72,7 +74,8 @@ AUTHORS_FULL = AuthorsPlan(
     lambdas_theta=(0.0, 1e-4, 1e-3, 5e-3, 0.02, 0.1, 1.0, math.inf),
     widths_probe=(3.0, 4.6, 6.2, 7.8, 9.4, 10.6),
     probes=("friction_dt", "friction_E1000", "friction_full", "friction_constant",
-            "friction3d_mu10"))
+            "friction_sequential", "friction_n3200", "friction3d_mu10", "friction3d_stiff"),
+    replicate_seeds=(1, 2, 3))
 AUTHORS_REDUCED = AuthorsPlan(
     widths_2d=(3.0, 4.6, 6.2, 7.8, 9.4, 10.6),
     lambdas_2d=(0.0, 5e-3, 0.02, 0.05, LAMBDA_SWITCH, 1.0, math.inf),
@@ -82,16 +85,21 @@ AUTHORS_REDUCED = AuthorsPlan(
     theta_w=(60.0, 30.0, 20.0), duration_theta=150.0, widths_theta=(3.0, 5.4, 7.8, 10.2),
     lambdas_theta=(0.0, 1e-3, 5e-3, 0.02, 0.1, math.inf),
     widths_probe=(3.0, 4.6, 6.2, 7.8, 9.4, 10.6),
-    probes=("friction_E1000",),
+    probes=("friction_sequential", "friction_n3200"), replicate_seeds=(1,),
     reductions=("6 widths of the authors' 20 in 2D (3.0-10.6), 6 in 3D (4-9; full: 4-10)",
                 "7 lambda in 2D (full: 12), the two limits in 3D (full: 6 lambda); the inclined hoppers (theta_w = 60, 30, 20) with "
                 "4 widths and 6 lambda (full: 5 widths, 8 lambda)",
                 "150 t0 of flow in 2D (the authors' runs: ~153 t0), 100 t0 in 3D and for the "
                 "hard-particle limit (full: 300, 200, 150)",
                 "hard-particle limit with 4 widths (full: 10)",
-                "one friction-limit probe (E_sp = 1000); full: also the authors' dt, full "
-                "friction, constant stiffness and 3D at a tenth of mu"))
+                "two friction-limit probes (the sequential start, N = 3200); full: also the "
+                "authors' dt, E_sp = 1000, full friction, constant stiffness, and 3D at a "
+                "tenth of mu and with the 3D branch's stiffness",
+                "one replicate (seed 1) of the two 2D limits (full: three)"))
 
+#: E_sp of the authors' 3D branch (spK = 100), converted as its masses (pi r^2) and the 2D
+#: code's g = 0.05 give (hopper_units.AUTHORS_3D_UNITS): 926.
+STIFF_3D = AUTHORS_3D_UNITS.pair_force_scale(AUTHORS_3D_SPK)
 #: The friction-limit probes: one convention changed at a time.
 PROBES: dict[str, dict[str, Any]] = {
     "friction_dt": {"run": {"dt": AUTHORS_CODE.units.duration(AUTHORS_CODE.dt)}},
@@ -99,6 +107,9 @@ PROBES: dict[str, dict[str, Any]] = {
     "friction_constant": {"hopper": {"stiffness": "constant"}},
     "friction_E1000": {"hopper": {"E_sp": 1000.0, "E_w": 1000.0}},
     "friction3d_mu10": {"dim": 3, "hopper": {"mu_limit": 0.1 * AUTHORS_CODE.units.mu(10.0)}},
+    "friction3d_stiff": {"dim": 3, "hopper": {"E_sp": STIFF_3D, "E_w": STIFF_3D}},
+    "friction_sequential": {"hopper": {"initial_packing": "sequential"}},
+    "friction_n3200": {"hopper": {"n": 3200}},
 }
 
 
@@ -112,7 +123,12 @@ PROBE_LABELS = {"q2d": "the authors' conventions (dt = t_c/20)",
                 "friction_constant": "one eps for every pair (stiffness = 'constant')",
                 "friction_E1000": "stiffer grains, E_sp = E_w = 1000 (the hard limit: below)",
                 "q3d": "3D, the authors' conventions converted as in 2D",
-                "friction3d_mu10": "3D with a ten times weaker friction, mu/mu0 = 0.85"}
+                "friction3d_mu10": "3D with a ten times weaker friction, mu/mu0 = 0.85",
+                "friction3d_stiff": "3D with the 3D branch's pair stiffness (spK = 100: "
+                                    "E_sp = E_w = 926)",
+                "friction_sequential": "the loose sequential start (packing 0.45) instead of "
+                                       "the authors' inflated one",
+                "friction_n3200": "twice the grains, N = 3200 (a pile twice as tall)"}
 
 #: Seed numbers: (quantity, dim, lambda) -> value. C in the paper's plotted units (grains per
 #: 1000 steps); ``C_SCALE`` turns them into area rates in Q0 (hopper_units).
@@ -183,9 +199,17 @@ def sweep_specs(plan: AuthorsPlan) -> dict[str, Any]:
         raw[name] = {"base": base, "overrides": {"hopper.orifice_width": list(widths)}}
     if plan.theta_w:
         raw["theta2d"]["base"]["hopper"]["theta_w"] = plan.theta_w[0]
+    if plan.replicate_seeds:
+        raw[REPLICAS] = {"base": _base(2, plan, plan.duration_2d), "overrides": {
+            "hopper.orifice_width": list(plan.widths_2d), "hopper.lam": [0.0, math.inf]},
+            "seeds": list(plan.replicate_seeds)}
     analyses = ["grainflow.studies.hopper_results:flow_summary"]
     return {name: parse_sweep({"name": name, "mode": "grid", "analyses": analyses, **spec})
             for name, spec in raw.items()}
+
+
+#: Sweep name of the replicate 2D limits (other seeds than q2d's).
+REPLICAS = "replicas2d"
 
 
 def collect(sweepdir: Path, lam: float | None = None) -> dict[tuple, Series]:
@@ -364,6 +388,74 @@ def _probe_table(plan: AuthorsPlan, fits: dict, results: dict) -> list[str]:
     return lines
 
 
+#: The exponent of a viscous, pressure-driven flow through the orifice, beta = d: Stokes flow
+#: through a slit in a thin wall (2D, Q = pi w^2 dp / (32 eta), Hasimoto 1958) or a circular
+#: hole in a thin plate (3D, Sampson 1891: Q = w^3 dp / (24 eta)); Beverloo's is d - 1/2.
+VISCOUS_BETA = {2: 2.0, 3: 3.0}
+
+
+def _regime_table(results: dict) -> list[str]:
+    """The friction limit fitted with beta fixed at Beverloo's d - 1/2 and at the viscous d:
+    which law the measured Q(w) follows (chi^2/dof), and its k."""
+    from grainflow.analysis.hopper import fit_beverloo
+
+    lines = ["", "## The friction limit: Beverloo's exponent against a viscous flow's", "",
+             "| series | β fixed | C | k | χ²/dof |", "|---|---|---|---|---|"]
+    for name, dim in (("q2d", 2), ("friction_n3200", 2), ("q3d", 3)):
+        ser = results.get(name, {}).get((0.0, None, None))
+        if ser is None or len(ser.w) < 3:
+            continue
+        for label, beta in (("Beverloo", dim - 0.5), ("viscous", VISCOUS_BETA[dim])):
+            try:
+                f = fit_beverloo(ser.w, ser.Q, Q_err=ser.Q_err, beta=beta)
+            except (ValueError, RuntimeError):
+                continue
+            lines.append(f"| {PROBE_LABELS[name]} | {beta:g} ({label}) | {fit_cell(f, 'C')} | "
+                         f"{fit_cell(f, 'k')} | {_chi(f)} |")
+    return lines
+
+
+def _height_table(results: dict) -> list[str]:
+    """Q at the friction limit with twice the grains over Q with the study's N, width by
+    width. A Beverloo (inertial) flow does not depend on the pile's height; a viscous,
+    pressure-driven one (Stokes flow through a slit, Q ~ rho g H w^2 / eta) doubles with it."""
+    base = results.get("q2d", {}).get((0.0, None, None))
+    tall = results.get("friction_n3200", {}).get((0.0, None, None))
+    if not base or not tall:
+        return []
+    lines = ["", "## The friction limit against the pile's height", "",
+             "| w | Q (N = 1600) | Q (N = 3200) | ratio |", "|---|---|---|---|"]
+    rates = {w: (q, e) for w, q, e in zip(base.w, base.Q, base.Q_err)}
+    for w, q, e in sorted(zip(tall.w, tall.Q, tall.Q_err)):
+        if w in rates:
+            q0, e0 = rates[w]
+            ratio = q / q0
+            lines.append(f"| {w:g} | {fmt(q0, e0)} | {fmt(q, e)} | "
+                         f"{fmt(ratio, ratio * math.hypot(e / q, e0 / q0))} |")
+    return lines
+
+
+def _replicate_table(fits: dict, replicas: dict[tuple, Series]) -> list[str]:
+    """The free beta of the 2D limits for every seed (q2d is seed 0), their mean and sample
+    standard deviation: the spread between realizations, which the fits' errors do not hold."""
+    lines = ["", "## Replicates of the 2D limits (free fits)", "",
+             "| λ | seed | β | k | C |", "|---|---|---|---|---|"]
+    for lam in (0.0, math.inf):
+        betas = []
+        rows = [(0, fits.get("q2d", {}).get((lam, None, None), {}).get("free"))]
+        rows += [(int(seed), three_fits(ser, 2, lam).get("free"))
+                 for (lam_r, seed), ser in sorted(replicas.items()) if lam_r == lam]
+        for seed, f in rows:
+            lines.append(f"| {_arrow(lam)} | {seed} | {fit_cell(f, 'beta')} | "
+                         f"{fit_cell(f, 'k')} | {fit_cell(f, 'C')} |")
+            if f is not None:
+                betas.append(f.beta)
+        if len(betas) >= 2:
+            lines.append(f"| {_arrow(lam)} | mean ± s.d. ({len(betas)}) | "
+                         f"{fmt(float(np.mean(betas)), float(np.std(betas, ddof=1)))} | | |")
+    return lines
+
+
 def _key_cells(key: tuple) -> str:
     return " | ".join("" if v is None else f"{v:g}" for v in key)
 
@@ -409,7 +501,8 @@ def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
     specs = sweep_specs(plan)
     run_sweeps(specs, out, scheduler=scheduler, n_workers=n_workers, progress=progress)
     for name in specs:
-        results[name] = collect(out / name, 0.0 if name in PROBES else None)
+        if name != REPLICAS:
+            results[name] = collect(out / name, 0.0 if name in PROBES else None)
     dims = {"q2d": 2, "q3d": 3, "theta2d": 2, **{hard_name(E): 2 for E in plan.hard_E_sp},
             **{p: probe_dim(p) for p in plan.probes}}
     fits = {name: {key: three_fits(s, dims[name], key[0])
@@ -432,6 +525,11 @@ def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
     lines += _figures(out, fits, results, dims, sigmoids)
     lines += _seed_table(plan, fits, sigmoids)
     lines += _probe_table(plan, fits, results)
+    lines += _regime_table(results)
+    lines += _height_table(results)
+    if plan.replicate_seeds:
+        lines += _replicate_table(fits, collect_series(out / REPLICAS,
+                                                       ("hopper.lam", "run.seed")))
     lines += _fits_table(fits)
     lines += _rates_table(results)
     report = out / "report.md"

@@ -41,15 +41,16 @@ class Series:
 def collect_series(sweepdir: str | Path, keys: tuple[str, ...] = ("hopper.lam",),
                    fixed: dict[str, float] | None = None) -> dict[tuple, Series]:
     """The finished points of a sweep as Q(w) series, keyed by the values of the swept
-    fields ``keys``: a field the sweep does not vary takes its value from ``fixed``, or None.
-    Points with Q = 0 (clogged) count in the series' cost but carry no flow rate."""
+    fields ``keys`` (the seed field, ``run.seed``, among them): a field the sweep does not vary
+    takes its value from ``fixed``, or None. Points with Q = 0 (clogged) count in the series'
+    cost but carry no flow rate."""
     from grainflow.sweep import Catalog
 
     sweepdir = Path(sweepdir)
     series: dict[tuple, Series] = {}
     with Catalog.in_dir(sweepdir) as catalog:
         for row in catalog.rows("done"):
-            p = row.params
+            p = {**row.params, row.seed_field: row.seed}
             key = tuple(float(p[k]) if k in p else (fixed or {}).get(k) for k in keys)
             s = series.setdefault(key, Series())
             if row.summary.get("Q", 0.0) > 0:
