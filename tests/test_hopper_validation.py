@@ -1,5 +1,5 @@
-"""Validation (slow, ``-m validation``, about 18 minutes on 2 cores; the authors'-path tests
-about 3 minutes of it): short real 2D Q(w)
+"""Validation (slow, ``-m validation``, about 27 minutes on 2 cores; the authors'-path tests
+about 11 minutes of it, 7 in two workers): short real 2D Q(w)
 series and their Beverloo exponents against seed 003 (issue tolerance +/- 0.15 in 2D).
 
 The drag-limit series run 800 t0: the drag-limited pile settles only after about 300 t0
@@ -12,9 +12,11 @@ model before and after the engine's sub-model refactor) gave 0.51 and 0.87 +/- 0
 - friction limit (lambda -> 0): beta = d - 1/2 = 3/2. Known discrepancy with the printed
   seed's mu/mu0 = 10 sqrt(10): beta near 2.2-2.5 (docs/hopper_study.md, "Friction limit"),
   xfail(strict). On the authors' path (``convention = "authors"``, mu/mu0 = 8.5 from their
-  code, docs/hopper_study.md "Second pass") the free fit gives 1.74 +- 0.07, still outside
-  3/2 +- 0.15 (xfail(strict)), while the paper's own bounded fit (beta <= 1.58, k >= 0.5)
-  lands on 1.58, its bound, within the tolerance;
+  code, their dense start, docs/hopper_study.md "Second pass") the free fit gives 1.84 +- 0.06
+  (1.69 with another seed), still outside 3/2 +- 0.15 (xfail(strict)): at N = 1600 the soft
+  pile drains as a viscous, pressure-driven flow. The paper's own bounded fit (beta <= 1.58,
+  k >= 0.5) lands on 1.58, its bound, within the tolerance; and a pile twice as tall
+  (N = 3200) gives the seed's 3/2 in a free fit;
 - the time step and the reinsertion rule (bulk partner or top of the column) are choices
   where the seed is unreadable: halving dt must leave Q unchanged, and the two reinsertion
   rules must give the same beta within the fits' uncertainties.
@@ -64,7 +66,7 @@ def test_beverloo_exponent_drag_limit_2d() -> None:
 
 @pytest.mark.xfail(strict=True, reason="first pass (printed mu/mu0 = 10 sqrt(10)): beta ~ "
                    "2.2-2.5 in the friction limit against the seed's 3/2; the authors' mu/mu0 = "
-                   "8.5 gives 1.74 (docs/hopper_study.md, 'Second pass')")
+                   "8.5 gives 1.84 (docs/hopper_study.md, 'Second pass')")
 def test_beverloo_exponent_friction_limit_2d() -> None:
     fit = _beverloo(150.0, lam=0.0)
     assert abs(fit.beta - 1.5) <= 0.15, fit
@@ -76,11 +78,11 @@ AUTHORS_T = 150.0
 
 
 @functools.cache
-def _authors_rates(lam: float) -> tuple[tuple[float, float], ...]:
+def _authors_rates(lam: float, n: int = 1600, seed: int = 0) -> tuple[tuple[float, float], ...]:
     out = []
     for w in AUTHORS_WIDTHS:
-        sim = build_hopper(HopperSection(convention="authors", n=1600, orifice_width=w, lam=lam),
-                           2, seed=0, max_overlap_fraction=2.0)
+        sim = build_hopper(HopperSection(convention="authors", n=n, orifice_width=w, lam=lam),
+                           2, seed=seed, max_overlap_fraction=2.0)
         prepare(sim)
         sim.run(int(math.ceil(AUTHORS_T / sim.dt)))
         up = hopper_updater(sim)
@@ -89,18 +91,25 @@ def _authors_rates(lam: float) -> tuple[tuple[float, float], ...]:
     return tuple(out)
 
 
-def _authors_fit(lam: float, **kw) -> BeverlooFit:
-    rates = _authors_rates(lam)
+def _authors_fit(lam: float, n: int = 1600, seed: int = 0, **kw) -> BeverlooFit:
+    rates = _authors_rates(lam, n, seed)
     return fit_beverloo(AUTHORS_WIDTHS, [q for q, _ in rates], Q_err=[e for _, e in rates], **kw)
 
 
 def test_authors_path_drag_limit_2d() -> None:
-    fit = _authors_fit(math.inf)
-    assert abs(fit.beta - 0.5) <= 0.15, fit
+    """The mean exponent of two realizations (seeds 0 and 1), as the study's replicate table
+    gives it: at 150 t0 one realization's drag-limit beta moves by about 0.1 from seed to seed
+    (0.66 and 0.58 from the authors' dense start; the fits' own errors are 0.04-0.05), so a
+    single series does not measure it to the tolerance."""
+    fits = [_authors_fit(math.inf, seed=seed) for seed in (0, 1)]
+    assert abs(np.mean([f.beta for f in fits]) - 0.5) <= 0.15, fits
 
 
-@pytest.mark.xfail(strict=True, reason="the free fit on the authors' path gives beta = 1.74 "
-                   "+- 0.07 against 3/2 +- 0.15 (docs/hopper_study.md, 'Second pass')")
+@pytest.mark.xfail(strict=True, reason="the free fit on the authors' path gives beta = 1.84 "
+                   "+- 0.06 (1.69 with seed 1) against 3/2 +- 0.15: at N = 1600 the soft pile "
+                   "drains as a viscous, pressure-driven flow (Q doubles with the pile's "
+                   "height; beta = 2 fits with chi2/dof 1.8 against 13 for 3/2); "
+                   "docs/hopper_study.md, 'The friction limit'")
 def test_authors_path_friction_limit_2d_free_fit() -> None:
     fit = _authors_fit(0.0)
     assert abs(fit.beta - 1.5) <= 0.15, fit
@@ -114,6 +123,18 @@ def test_authors_path_friction_limit_2d_paper_fit() -> None:
     assert "beta" in fit.at_bound, fit
 
 
+def test_authors_path_friction_limit_2d_tall_pile() -> None:
+    """With twice the grains (a column twice as tall, which doubles the flow rate at
+    lambda = 0) the friction-limited flow leaves the viscous regime: the free fit gives the
+    seed's 3/2 (1.46 +- 0.07 in the reduced study), below the N = 1600 exponent."""
+    tall = _authors_fit(0.0, n=3200)
+    assert abs(tall.beta - 1.5) <= 0.15, tall
+    assert _authors_fit(0.0).beta - tall.beta > 0.15
+    ratio = np.array([q for q, _ in _authors_rates(0.0, 3200)]) / np.array(
+        [q for q, _ in _authors_rates(0.0)])
+    assert np.all(ratio > 1.5), ratio
+
+
 def test_halving_dt_keeps_flow_rate() -> None:
     q1, e1 = _flow_rate(8.0, 500.0)
     q2, e2 = _flow_rate(8.0, 500.0, dt_scale=0.5)
@@ -125,3 +146,23 @@ def test_reinsertion_rule_does_not_change_beta() -> None:
     column = _beverloo(DRAG_LIMIT_T, reinsert_bulk_contacts=0)
     assert abs(bulk.beta - column.beta) <= 2.0 * np.hypot(bulk.beta_err, column.beta_err), (
         bulk, column)
+
+
+def test_a_tall_pile_at_the_friction_limit_runs_from_the_authors_start() -> None:
+    """N = 3200 (a pile twice the seed's height) at lambda = 0: from the loose sequential fill
+    (packing 0.45) the grains fall onto the pile and compress pairs past twice the small
+    radius, and the run stops on the overlap check; from the authors' dense start
+    (``initial_packing = "inflated"``) it flows (about 40 s)."""
+    from grainflow.engine.simulation import InstabilityError
+
+    def run(packing: str) -> None:
+        section = HopperSection(convention="authors", n=3200, orifice_width=10.6, lam=0.0,
+                                initial_packing=packing)
+        sim = build_hopper(section, 2, seed=0, max_overlap_fraction=2.0)
+        prepare(sim)
+        sim.run(int(math.ceil(30.0 / sim.dt)))
+        assert len(hopper_updater(sim).event_times) > 500
+
+    with pytest.raises(InstabilityError, match="overlap"):
+        run("sequential")
+    run("inflated")
