@@ -90,3 +90,14 @@ def test_packing_options_are_checked() -> None:
         HopperSection(convention="authors", inflate=1.0)
     with pytest.raises(ValidationError, match="inflate: applies to initial_packing"):
         HopperSection(inflate=1.3)  # grainflow's sequential fill
+
+
+def test_a_fire_that_does_not_settle_warns(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Cut short, the inflated packing's FIRE says so; what still overlaps is left to
+    ``run.minimize``, which removes it."""
+    import grainflow.scenarios.hopper_packing as packing
+
+    monkeypatch.setattr(packing, "MAX_FIRE_STEPS", 20)
+    with pytest.warns(RuntimeWarning, match="inflated packing's FIRE stopped after 20 steps"):
+        sim = build_hopper(HopperSection(**SMALL), 2)
+    assert prepare(sim).converged

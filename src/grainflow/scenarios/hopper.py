@@ -71,7 +71,8 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 from grainflow.scenarios import Scenario, register
 from grainflow.scenarios.hopper_reinsertion import HopperReinsertion
 from grainflow.scenarios.hopper_rings import RingReinsertion
-from grainflow.scenarios.hopper_packing import inflated_packing, uniform_positions
+from grainflow.scenarios.hopper_packing import (AUTHORS_INFLATE, inflated_packing,
+                                                uniform_positions)
 from grainflow.scenarios.hopper_units import AUTHORS_CODE
 from grainflow.engine.minimize import relax
 
@@ -195,8 +196,9 @@ class HopperSection(BaseModel):
         "fill_fraction relaxed by FIRE with every radius x inflate, then restored: the "
         "authors' code, a dense start); default sequential (grainflow), inflated (authors); "
         "deformable rings are always filled sequentially")
-    inflate: float = Field(1.2, gt=1, le=2, allow_inf_nan=False, description="initial_packing "
-                           "= 'inflated': radius factor during its FIRE (the authors' 1.2)")
+    inflate: float | None = Field(None, gt=1, le=2, allow_inf_nan=False, description="initial_"
+                                  "packing = 'inflated': radius factor during its FIRE; "
+                                  "default 1.2 (the authors')")
     fill_fraction: float | None = Field(None, gt=0, lt=1, allow_inf_nan=False,
                                         description="packing fraction of the initial fill; "
                                         "default 0.45 sequential (below 0.6; 3D uses 0.6 of "
@@ -256,7 +258,7 @@ class HopperSection(BaseModel):
             raise ValueError("initial_packing: 'inflated' is for soft grains (particles = "
                              "'sp'); deformable rings are filled sequentially")
         packing = chosen["initial_packing"] if self.particles == "sp" else "sequential"
-        if packing == "sequential" and "inflate" in self.model_fields_set:
+        if packing == "sequential" and self.inflate is not None:
             raise ValueError("inflate: applies to initial_packing = 'inflated' only")
         if packing == "sequential" and (self.fill_fraction or 0.0) >= 0.6:
             raise ValueError(f"fill_fraction: {self.fill_fraction} is past what random "
@@ -405,7 +407,7 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         r = radii
         closed = [*walls, _lid_wall(dim, w), _cap_wall(dim, top)]
         x = inflated_packing(uniform_positions(region, r, rng), r, _grain_types(r), closed,
-                             options["E_sp"], section.inflate, dim=dim, box=box).x
+                             options["E_sp"], _inflate(section), dim=dim, box=box)
     r = r / extent
     types = _grain_types(r)
     state = ParticleState(dim, box)
@@ -496,12 +498,18 @@ def _fill_fraction(section: HopperSection, packing: str, dim: int) -> float:
     fill = section.fill_fraction
     if fill is None:
         fill = 0.6 if dim == 2 else 0.35
-    if fill * section.inflate**dim >= 1.0:
-        raise ValueError(f"hopper.fill_fraction: {fill:g} with inflate = {section.inflate:g} "
-                         f"fills {fill * section.inflate**dim:.2f} of the hopper at the "
+    inflate = _inflate(section)
+    if fill * inflate**dim >= 1.0:
+        raise ValueError(f"hopper.fill_fraction: {fill:g} with inflate = {inflate:g} "
+                         f"fills {fill * inflate**dim:.2f} of the hopper at the "
                          f"inflated radii in {dim}D; lower fill_fraction or inflate so that "
                          "fill_fraction * inflate^d stays below 1")
     return fill
+
+
+def _inflate(section: HopperSection) -> float:
+    """The radius factor of the inflated packing: ``inflate``, or the authors' 1.2."""
+    return AUTHORS_INFLATE if section.inflate is None else section.inflate
 
 
 def _cap_wall(dim: int, top: float) -> Any:
