@@ -25,8 +25,10 @@ after a few hundred t0 (`grainflow demo` runs 600 t0 of a drag-limited hopper).
 # ----------
 # `HopperSection` is the `[hopper]` table of a configuration file. `convention="authors"`
 # takes every model option as the authors' code has it (docs/hopper_study.md, "Second
-# pass"); `lam=0` is the friction limit. `build_hopper` fills the hopper at random and
-# `prepare` removes the overlaps with FIRE (gravity off), as the seed does. The soft grains
+# pass"); `lam=0` is the friction limit. `build_hopper` starts as their code does: random
+# centres at packing 0.6, relaxed by FIRE with the radii x 1.2 and gravity off, then the radii
+# restored (`initial_packing = "inflated"`); `prepare` is the seed's FIRE for any overlap left
+# (none here) before gravity is switched on. The soft grains
 # overlap strongly at the bottom of a friction-only pile, so the health check allows
 # overlaps up to twice the small radius (as `grainflow study hopper` does).
 
