@@ -10,7 +10,7 @@ import pytest
 
 from grainflow.analysis.cg import (Cartesian, Cylindrical, Gaussian, Heaviside, Lucy, Polar,
                                    coarse_grain, combine, frame_sums, load_fields,
-                                   strain_rate)
+                                   slab_gradient, strain_rate)
 from grainflow.frame import ANCHOR, PAIR, WALL, Box, Contacts, Frame
 from grainflow.kernels import cg_deposit
 
@@ -71,6 +71,36 @@ def test_gaussian_kernel_is_the_normalised_gaussian_inside_its_cutoff():
     assert cg_deposit.kernel_weight(g.code, 0.0, 0.5, g.reach, g.norm(2)) == pytest.approx(
         1 / (2 * pi * 0.25) / (1 - np.exp(-8.0)))
     assert cg_deposit.kernel_weight(g.code, 4.01**2 * 0.25, 0.5, g.reach, g.norm(2)) == 0.0
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_separable_gaussian_deposit_is_the_brute_force_sum(k):
+    """deposit_gaussian_points (one-point lines, the row-at-a-time path) against the direct
+    sum over every (point, cell) pair of weight * W(|q_cell - q|) * values, on uneven centres,
+    with points near and beyond the grid's ends, a zero weight, and cells exactly at the
+    cutoff (kept, r <= cutoff)."""
+    rng = np.random.default_rng(k)
+    width, cutoff = 0.5, 1.0
+    # uneven centres on multiples of 1/8, so that point 0 lies exactly one cutoff from a cell
+    axes = [np.cumsum(rng.integers(1, 5, n) * 0.125) for n in (11, 7, 5)[:k]]
+    q = rng.uniform(-1.5, 5.5, (40, k))
+    q[0] = [a[2] for a in axes]
+    q[0, 0] -= cutoff
+    weights = rng.uniform(0.5, 1.5, 40)
+    weights[5] = 0.0
+    values = rng.normal(size=(40, 4))
+    flat = np.concatenate(axes)
+    counts = np.array([a.size for a in axes], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    norm = Gaussian(width, cutoff=cutoff / width).norm(k)
+    out = np.zeros((int(np.prod(counts)), 4))
+    cg_deposit.deposit_gaussian_points(q, weights, values, flat, offsets, counts, width,
+                                       cutoff, norm, out)
+    cells = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, k)
+    r2 = ((cells[:, None, :] - q[None, :, :]) ** 2).sum(axis=-1)
+    w = np.where(r2 <= cutoff**2, norm * np.exp(-r2 / (2 * width**2)), 0.0)
+    assert (r2[:, 0] == cutoff**2).any()  # the boundary case is present
+    np.testing.assert_allclose(out, w @ (weights[:, None] * values), rtol=1e-12, atol=1e-14)
 
 
 # --- branch-line fractions (seed 002 eq. C.29) -----------------------------------------------
@@ -370,6 +400,43 @@ def test_strain_rate_of_linear_fields_is_exact():
     np.testing.assert_allclose(d[..., 1, 1], 0.4, atol=1e-12)
     np.testing.assert_allclose(d[..., 0, 2], -0.3, atol=1e-12)
     np.testing.assert_allclose(d[..., 2, 2], 0.0, atol=1e-12)
+
+
+def test_slab_gradient_restores_the_shear_across_a_one_cell_layer():
+    """A layer one cell thick (seed 002's meshes) averages its velocity over z, so the
+    derivative across it is zero unless measured from its halves (Sec. 5.3.3). V_r = a z
+    (and V_z = c r) inside the layer 0 < z < 1: the half layers' mean V_r differ by a/2 over
+    half a layer, so D_rz = (a + c)/2 exactly for grains placed symmetrically in each half."""
+    a, c = 0.8, -0.3
+    r = np.repeat(np.linspace(0.55, 2.95, 9), 4)  # 9 radii, 4 grains at each
+    z = np.tile([0.1, 0.4, 0.6, 0.9], 9)
+    phi = np.linspace(0, 2 * pi, r.size, endpoint=False)
+    pos = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    v_r, v_z = a * z, c * r
+    vel = np.column_stack([v_r * np.cos(phi), v_r * np.sin(phi), v_z])
+    layer = Cylindrical(np.linspace(0.4, 3.1, 10), [0.0, 1.0])
+    frames = [make_frame(pos, vel, contacts=None)]
+    velocity = coarse_grain(frames, layer, contacts=False).velocity
+    # without the halves d v_r/dz is taken as zero: D_rz is dv_z/dr / 2 = c/2 alone
+    np.testing.assert_allclose(strain_rate(velocity, layer)[..., 0, 2], 0.5 * c, rtol=1e-9)
+    across = slab_gradient(frames, layer, 1)
+    np.testing.assert_allclose(across[..., 0], a, rtol=1e-12)  # d v_r / dz
+    np.testing.assert_allclose(across[..., 2], 0.0, atol=1e-12)
+    d = strain_rate(velocity, layer, across={1: across})
+    np.testing.assert_allclose(d[..., 0, 2], 0.5 * (a + c), rtol=1e-9)
+    np.testing.assert_allclose(d[..., 2, 0], d[..., 0, 2])
+    # a Cartesian slab (x resolved, y one bin): V_x = g y gives D_xy = g/2
+    g = 0.5
+    xy = np.column_stack([np.repeat(np.linspace(0.1, 3.9, 20), 4), np.tile(z, 20)[:80]])
+    slab = Cartesian([np.linspace(0, 4, 5), [0.0, 1.0]])
+    fr = [make_frame(xy, np.column_stack([g * xy[:, 1], np.zeros(80)]), contacts=None)]
+    grad = slab_gradient(fr, slab, 1)
+    d = strain_rate(coarse_grain(fr, slab, contacts=False).velocity, slab, across={1: grad})
+    np.testing.assert_allclose(d[..., 0, 1], g / 2, rtol=1e-12)
+    with pytest.raises(ValueError, match="coordinate"):
+        slab_gradient(fr, slab, 0)  # x is resolved
+    with pytest.raises(ValueError, match="across"):
+        strain_rate(velocity, layer, across={0: across})
 
 
 def test_cylindrical_components_of_a_swirling_jet():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from grainflow.analysis import jet_rheology as jr
-from grainflow.analysis.cg import Cylindrical, coarse_grain
+from grainflow.analysis.cg import Cylindrical, coarse_grain, select_types
 from grainflow.analysis.kinetic_theory import pressure_ratio
 from grainflow.frame import ANCHOR, BOND, PAIR, Box, Contacts, Frame
 from grainflow.plotting import jet_rheology_plots as jp
@@ -176,9 +176,9 @@ def _target_frame():
     return frame, (f_on_100, f_on_101, f_on_102)
 
 
-def test_grain_frame_keeps_every_grain_contact_from_the_grain_side():
+def test_select_types_keeps_every_grain_contact_from_the_grain_side():
     frame, (f100, f101, _) = _target_frame()
-    grains = jr.grain_frame(frame)
+    grains = select_types(frame, jr.GRAIN_TYPES)
     assert grains.n == 4 and set(grains.type) == {0}
     c = grains.contacts
     assert set(c.i) <= set(grains.id) and c.i.size == 3  # bond and anchor dropped
@@ -193,7 +193,16 @@ def test_grain_frame_keeps_every_grain_contact_from_the_grain_side():
     naive = Frame(**{**grains.__dict__, "contacts": frame.contacts})
     with pytest.raises(ValueError, match="contacts name particle ids"):
         coarse_grain([naive], Cylindrical([0, 11], [0, 5]))
-    assert jr.grain_frame(grains) is grains  # nothing to drop
+    assert select_types(grains, jr.GRAIN_TYPES) is grains  # nothing to drop
+    # coarse_grain's types= is the same selection, frame by frame
+    grid = Cylindrical([0, 2, 11], [0, 5])
+    by_types = coarse_grain([frame], grid, types=jr.GRAIN_TYPES)
+    selected = coarse_grain([grains], grid)
+    for name in ("number_density", "velocity", "stress"):
+        np.testing.assert_array_equal(getattr(by_types, name), getattr(selected, name))
+    assert not np.allclose(coarse_grain([frame], grid).number_density, selected.number_density)
+    with pytest.raises(ValueError, match="types"):
+        coarse_grain([frame], grid, types=[])
 
 
 def test_target_particles_left_out_of_kinetic_sums_but_their_contacts_count():
@@ -216,7 +225,7 @@ def test_target_particles_left_out_of_kinetic_sums_but_their_contacts_count():
     kinetic_zz = np.sum((vel[:, 2] - mean_vz) ** 2) / v0
     assert lay.sigma[0, 2, 2] == pytest.approx((fb_zz * frac).sum() / v0 + kinetic_zz)
     # the same as coarse-graining the grains alone with the contacts written grain-first
-    ref = coarse_grain([jr.grain_frame(frame)], Cylindrical(lay.edges, [0, 5]))
+    ref = coarse_grain([frame], Cylindrical(lay.edges, [0, 5]), types=jr.GRAIN_TYPES)
     np.testing.assert_allclose(lay.sigma, ref.stress, atol=1e-14)
     # the grain-grain contact in cell 1 (both grains at r ~ 4.1, 4.2)
     assert abs(lay.sigma[1, 2, 2] - ref.stress[1, 2, 2]) < 1e-14 and lay.sigma[1, 2, 2] != 0

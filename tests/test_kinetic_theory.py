@@ -193,9 +193,8 @@ def test_effective_restitution_gives_thesis_value():
 
 @pytest.mark.parametrize("call, name", [
     (lambda: radial_distribution_contact(-0.1), "phi"),
-    (lambda: radial_distribution_contact(0.64), "phi"),
-    (lambda: radial_distribution_contact([0.3, 0.7]), "phi"),
-    (lambda: radial_distribution_contact(0.82, dim=2), "phi"),
+    (lambda: radial_distribution_contact(1.0), "phi"),
+    (lambda: radial_distribution_contact([0.3, 1.2]), "phi"),
     (lambda: radial_distribution_contact(float("nan")), "phi"),
     (lambda: radial_distribution_contact("dense"), "phi"),
     (lambda: radial_distribution_contact(0.3, dim=1), "dim"),
@@ -207,7 +206,7 @@ def test_effective_restitution_gives_thesis_value():
     (lambda: pressure(-1.0, 1.0, 0.3, 0.5), "number_density"),
     (lambda: pressure(1.0, -1.0, 0.3, 0.5), "temperature"),
     (lambda: c_star(2.0), "restitution"),
-    (lambda: eta_star(0.7, 0.5), "phi"),
+    (lambda: eta_star(1.5, 0.5), "phi"),
     (lambda: shear_viscosity(0.3, 1.0, 0.5, 0.0, 1.0), "diameter"),
     (lambda: shear_viscosity(0.3, 1.0, 0.5, 1.0, -2.0), "mass"),
     (lambda: shear_viscosity(0.3, -1.0, 0.5, 1.0, 1.0), "temperature"),
@@ -219,6 +218,18 @@ def test_effective_restitution_gives_thesis_value():
 def test_bad_input_raises_value_error_naming_argument(call, name):
     with pytest.raises(ValueError, match=rf"^{name}:"):
         call()
+
+
+def test_packing_beyond_random_close_packing_has_no_value():
+    """chi diverges at phi_c: a measured cell packed at or beyond it gets NaN from chi and from
+    everything built on it, while the other cells of the same array keep their values."""
+    chi = radial_distribution_contact([0.3, PHI_C, 0.7])
+    assert np.isfinite(chi[0]) and np.isnan(chi[1:]).all()
+    assert np.isnan(radial_distribution_contact(0.82, dim=2))
+    ratio = pressure_ratio([0.3, 0.66], 0.75)
+    assert ratio[0] == pytest.approx(1 + 2 * 0.3 * 1.75 * chi_thesis(0.3), rel=1e-13)
+    assert np.isnan(ratio[1])
+    assert np.isnan(eta_star(0.7, 0.5)) and np.isnan(shear_viscosity(0.65, 1.0, 0.5, 1.0, 1.0))
 
 
 @pytest.mark.parametrize("call", [

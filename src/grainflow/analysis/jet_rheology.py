@@ -31,7 +31,7 @@ In each cell (Heaviside bins, the seed's cell averages, Appendix C):
 
 Wall particles are the wall, not the flow: they are left out of n, phi, the mean velocity and
 the kinetic stress, while their contacts with grains enter the contact stress, whose branch
-lines cross the layer (:func:`grain_frame`).
+lines cross the layer (:func:`grainflow.analysis.cg.select_types`).
 
 Errors are standard errors over blocks of frames (``blocks``) and, after :func:`pool`, over
 replicas (the seed's ten configurations; their spread is ``LayerFields.spread``).
@@ -49,16 +49,16 @@ from numpy.typing import ArrayLike
 
 from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.cg import (CGFields, Cartesian, Cylindrical, Heaviside, coarse_grain_grids,
-                                   combine)
+                                   combine, select_types)
 from grainflow.analysis.kinetic_theory import RANDOM_CLOSE_PACKING, pressure_ratio
 from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, MuPowerLawFit,
                                          effective_friction, fit_divergence, fit_mu_linear,
                                          fit_mu_of_I, fit_mu_power_law, flatness,
                                          inertial_number, temperature_number)
-from grainflow.frame import BOND, PAIR, Contacts, Frame
+from grainflow.frame import Frame
 
 __all__ = ["GRAIN_TYPES", "TARGET_TYPE", "KineticTheoryCheck", "LayerFields", "fit_divergence_2d",
-           "fit_friction_2d", "fit_friction_3d", "grain_frame", "kinetic_theory_check",
+           "fit_friction_2d", "fit_friction_3d", "kinetic_theory_check",
            "VALUE_NAMES", "layer_flatness", "layer_fluctuations", "layer_fields_2d",
            "layer_fields_3d", "pool", "rheology_points"]
 
@@ -70,52 +70,6 @@ GRAIN_TYPES = (0, 1)
 TARGET_TYPE = 2
 
 _KERNEL = Heaviside()
-
-
-# --------------------------------------------------------------------------------------------
-# Selecting the grains
-# --------------------------------------------------------------------------------------------
-
-
-def grain_frame(frame: Frame, grains: Sequence[int] = GRAIN_TYPES) -> Frame:
-    """The frame restricted to the particles whose type is in ``grains``, every contact with a
-    grain kept.
-
-    Contacts are stored with explicit branch vectors (:class:`~grainflow.frame.Contacts`), but
-    the coarse-graining places a branch line from the position of its particle ``i`` (the line
-    runs from ``r_i - b`` to ``r_i``), so ``i`` must stay in the frame. A pair or bond row whose
-    ``i`` is dropped (a wall particle) and whose partner ``j`` is a grain is therefore written
-    from the grain's side: ``i <-> j``, ``F -> -F`` (Newton's third law), ``b -> -b``; the
-    branch line is the same segment and ``F (x) b`` the same tensor. Rows between two dropped
-    particles (the target's tethers between neighbours), and wall or anchor rows of dropped
-    particles (tethers to their initial positions), are left out: they are the wall's internal
-    forces (the target's lie in z < 0, x < 0, outside every layer).
-    """
-    keep = np.isin(np.asarray(frame.type), np.asarray(grains))
-    if keep.all():
-        return frame
-    kept_ids = np.asarray(frame.id)[keep]
-    contacts = frame.contacts
-    if contacts is not None:
-        c = contacts
-        pair_like = (c.kind == PAIR) | (c.kind == BOND)
-        i_kept = np.isin(c.i, kept_ids)
-        flip = ~i_kept & pair_like & np.isin(c.j, kept_ids)
-        rows = i_kept | flip
-        sign = np.where(flip, -1.0, 1.0)[:, None]
-        contacts = Contacts(i=np.where(flip, c.j, c.i)[rows], j=np.where(flip, c.i, c.j)[rows],
-                            force=(sign * np.asarray(c.force, dtype=float))[rows],
-                            branch=(sign * np.asarray(c.branch, dtype=float))[rows],
-                            kind=np.asarray(c.kind)[rows])
-    n = frame.n
-    extra = {k: (np.asarray(v)[keep] if np.ndim(v) and np.shape(v)[0] == n else v)
-             for k, v in frame.extra.items()}
-    return Frame(step=frame.step, time=frame.time, box=frame.box, id=frame.id[keep],
-                 type=frame.type[keep], body=frame.body[keep], radius=frame.radius[keep],
-                 mass=frame.mass[keep], position=frame.position[keep],
-                 velocity=frame.velocity[keep], omega=frame.omega[keep], contacts=contacts,
-                 ring_vertex=None if frame.ring_vertex is None else frame.ring_vertex[keep],
-                 extra=extra)
 
 
 # --------------------------------------------------------------------------------------------
@@ -211,15 +165,13 @@ def _check_window(window) -> None:
 def _accumulate(frames: Iterable[Frame], grids: Sequence, contacts: Sequence[bool],
                 window, blocks: int, grains: Sequence[int]) -> list[CGFields]:
     """:func:`grainflow.analysis.cg.coarse_grain_grids` of the grains of every frame in the
-    window (the target's particles removed, :func:`grain_frame`), on several grids in one
+    window (the target's particles removed, :func:`~grainflow.analysis.cg.select_types`), on several grids in one
     pass."""
     if not isinstance(blocks, (int, np.integer)) or isinstance(blocks, bool) or blocks < 1:
         raise ValueError(f"blocks: a positive integer, got {blocks!r}")
     _check_window(window)
-    selected = (grain_frame(frame, grains) for frame in frames
-                if window is None or window[0] <= frame.time <= window[1])
-    return coarse_grain_grids(selected, list(grids), _KERNEL, window=window,
-                              blocks=int(blocks), contacts=list(contacts))
+    return coarse_grain_grids(frames, list(grids), _KERNEL, window=window, blocks=int(blocks),
+                              contacts=list(contacts), types=grains)
 
 
 def _block(fields: CGFields, b: int) -> CGFields:
@@ -443,7 +395,7 @@ def layer_fields_3d(frames: Iterable[Frame], target_radius: float, *, layer: flo
     window : (t_start, t_end) inclusive; None: every frame.
     blocks : consecutive groups of frames for the standard errors.
     grains : particle types that are grains; other types (the target, :data:`TARGET_TYPE`)
-        count only through their contacts with grains (:func:`grain_frame`).
+        count only through their contacts with grains (:func:`~grainflow.analysis.cg.select_types`).
     diameter, mass : d and m in I and I_T (units: 1).
     """
     mesh = _mesh_3d(target_radius, layer, n_r)
@@ -746,7 +698,7 @@ def layer_fluctuations(frames: Iterable[Frame], target_radius: float, *, dim: in
         if frame.dim != dim:
             raise ValueError(f"dim: {dim}D mesh, but the frame at step {frame.step} is "
                              f"{frame.dim}D")
-        grain = grain_frame(frame, grains)
+        grain = select_types(frame, grains)
         cell, comps = _cells_and_components(grain, mesh)
         keep = np.isin(cell, chosen)
         cell_list.append(cell[keep])

@@ -112,11 +112,10 @@ def _packing_limits(dim: int, phi_f: float | None, phi_c: float | None) -> tuple
     return float(phi_f), float(phi_c)
 
 
-def _volume_fraction(value: ArrayLike, phi_c: float) -> np.ndarray:
+def _volume_fraction(value: ArrayLike) -> np.ndarray:
     arr = _as_array("phi", value)
-    if np.any((arr < 0) | (arr >= phi_c)):
-        raise ValueError(f"phi: must lie in [0, phi_c) = [0, {phi_c!r}), where chi is finite; "
-                         f"got {value!r}")
+    if np.any((arr < 0) | (arr >= 1)):
+        raise ValueError(f"phi: a packing fraction must lie in [0, 1); got {value!r}")
     return arr
 
 
@@ -139,9 +138,11 @@ def _dilute_branch(phi: np.ndarray | float, dim: int) -> np.ndarray | float:
 
 def _chi(phi: ArrayLike, dim: int, phi_f: float | None, phi_c: float | None) -> np.ndarray:
     phi_f, phi_c = _packing_limits(dim, phi_f, phi_c)
-    phi = _volume_fraction(phi, phi_c)
-    dense = _dilute_branch(phi_f, dim) * (phi_c - phi_f) / (phi_c - phi)
-    return np.where(phi < phi_f, _dilute_branch(phi, dim), dense)
+    phi = _volume_fraction(phi)
+    with np.errstate(divide="ignore"):
+        dense = _dilute_branch(phi_f, dim) * (phi_c - phi_f) / (phi_c - phi)
+    chi = np.where(phi < phi_f, _dilute_branch(phi, dim), dense)
+    return np.where(phi < phi_c, chi, np.nan)
 
 
 def radial_distribution_contact(phi: ArrayLike, dim: int = 3, phi_f: float | None = None,
@@ -164,7 +165,9 @@ def radial_distribution_contact(phi: ArrayLike, dim: int = 3, phi_f: float | Non
     :data:`RANDOM_CLOSE_PACKING` of the dimension: 0.49 and 0.64 for spheres (thesis), 0.69
     and 0.82 for disks (Torquato 1995: hard-disk freezing and random close packing).
 
-    Raises ValueError for ``phi`` outside [0, phi_c), where chi diverges or is undefined.
+    NaN for ``phi_c <= phi < 1``, where chi has diverged (a measured field may hold cells packed
+    beyond random close packing: they get no value instead of stopping the whole map);
+    ValueError for ``phi`` outside [0, 1). Every function below built on chi inherits the NaN.
     """
     return _out(_chi(phi, _dim(dim), phi_f, phi_c))
 

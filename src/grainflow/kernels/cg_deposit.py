@@ -444,3 +444,92 @@ def deposit_smooth_lines(q, weights, values, centres, offsets, counts, kind, wid
     for c in range(N_CHUNKS):
         out += buffers[c]
 
+
+
+@njit(cache=True, parallel=True)
+def deposit_gaussian_points(q, weights, values, centres, offsets, counts, width, cutoff, norm,
+                            out):
+    """:func:`deposit_smooth_lines` for lines of one point and the Gaussian kernel: adds
+    ``weights[m] W(|q_cell - q[m]|) * values[m]`` into ``out`` (cells, n_values).
+
+    The Gaussian separates, ``W = norm * prod_a exp(-d_a^2 / 2 w^2)``, so a point's values
+    times the factors along the last (contiguous) axis form one row of ``n_last * n_values``
+    numbers, computed once; every cell row in reach then adds that row times the product of
+    the other axes' factors as one contiguous multiply-add, cut to the cells inside the
+    spherical cutoff (the same ``r^2 > cutoff^2`` test, summed in the same axis order, as
+    :func:`deposit_smooth_lines`, so exactly the same cells). Grains on every grid and the
+    rotated branch-line points of cylindrical and polar cells are such lines."""
+    m_total, k = q.shape
+    n_values = values.shape[1]
+    n_cells = out.shape[0]
+    last = k - 1
+    cut2 = cutoff * cutoff
+    stride = np.zeros(3, dtype=np.int64)
+    s = 1
+    for a in range(k - 1, -1, -1):
+        stride[a] = s
+        s *= counts[a]
+    widest = counts.max()
+    chunk = (m_total + N_CHUNKS - 1) // N_CHUNKS
+    buffers = np.zeros((N_CHUNKS, n_cells * n_values))
+    for c in prange(N_CHUNKS):
+        buffer = buffers[c]
+        lo_idx = np.zeros(3, dtype=np.int64)
+        size = np.ones(3, dtype=np.int64)
+        dist = np.zeros((3, widest))
+        factor = np.ones((3, widest))
+        row = np.zeros(widest * n_values)
+        for m in range(c * chunk, min(m_total, (c + 1) * chunk)):
+            wp = weights[m]
+            if wp == 0.0:
+                continue
+            empty = False
+            for a in range(k):
+                lo_idx[a] = _search(centres, offsets[a], counts[a], q[m, a] - cutoff, False)
+                size[a] = _search(centres, offsets[a], counts[a], q[m, a] + cutoff,
+                                  True) - lo_idx[a]
+                if size[a] <= 0:
+                    empty = True
+            if empty:
+                continue
+            for a in range(k):
+                for j in range(size[a]):
+                    d = centres[offsets[a] + lo_idx[a] + j] - q[m, a]
+                    dist[a, j] = d * d
+                    factor[a, j] = math.exp(-0.5 * d * d / (width * width))
+            for j in range(size[last]):
+                f = wp * norm * factor[last, j]
+                for v in range(n_values):
+                    row[j * n_values + v] = f * values[m, v]
+            n_outer = 1
+            for a in range(last):
+                n_outer *= size[a]
+            for o in range(n_outer):
+                # the cell row's outer indices (C order) and its part of r^2, summed in
+                # deposit_smooth_lines' order: (d0 + d1) + d_last
+                outer_d2 = 0.0
+                outer_f = 1.0
+                cell = lo_idx[last] * stride[last]
+                if k == 2:
+                    outer_d2 = dist[0, o]
+                    outer_f = factor[0, o]
+                    cell += (lo_idx[0] + o) * stride[0]
+                elif k == 3:
+                    j0 = o // size[1]
+                    j1 = o - j0 * size[1]
+                    outer_d2 = dist[0, j0] + dist[1, j1]
+                    outer_f = factor[0, j0] * factor[1, j1]
+                    cell += (lo_idx[0] + j0) * stride[0] + (lo_idx[1] + j1) * stride[1]
+                first = 0
+                while first < size[last] and outer_d2 + dist[last, first] > cut2:
+                    first += 1
+                end = size[last]
+                while end > first and outer_d2 + dist[last, end - 1] > cut2:
+                    end -= 1
+                # unsigned indices: numba wraps a negative signed index at every access,
+                # which keeps this multiply-add from being vectorized
+                base = np.uint64(cell * n_values)
+                for t in range(np.uint64(first * n_values), np.uint64(end * n_values)):
+                    buffer[base + t] += outer_f * row[t]
+    for c in range(N_CHUNKS):
+        out += buffers[c].reshape(n_cells, n_values)

@@ -34,7 +34,7 @@ each derived field computed per block, its standard error ``std / sqrt(blocks)``
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from math import pi
 from pathlib import Path
@@ -44,6 +44,7 @@ import numpy as np
 from grainflow.analysis.cg.coordinates import (Cartesian, Coordinates, Cylindrical, Polar,
                                               frame_about, rotate_rows)
 from grainflow.analysis.cg.kernels import Gaussian, Heaviside, Kernel, Lucy
+from grainflow.analysis.cg.selection import select_types
 from grainflow.frame import CONTACT_KINDS, Frame
 from grainflow.kernels import cg_deposit
 
@@ -212,11 +213,19 @@ def _smooth(coords, kernel, points, weights, values, periods, n_cells) -> np.nda
 
 
 def _deposit_lines(coords, kernel, q, weights, values, out) -> None:
-    """:func:`cg_deposit.deposit_smooth_lines` on the grid's resolved centres."""
+    """:func:`cg_deposit.deposit_smooth_lines` on the grid's resolved centres
+    (:func:`cg_deposit.deposit_gaussian_points` for one-point lines and the Gaussian)."""
     centres = coords.centres
     flat = np.concatenate(centres)
     offsets = np.cumsum([0] + [c.size for c in centres[:-1]]).astype(np.int64)
     counts = np.array([c.size for c in centres], dtype=np.int64)
+    if isinstance(kernel, Gaussian) and q.shape[1] == 1:  # grains, rotated line points
+        cg_deposit.deposit_gaussian_points(np.ascontiguousarray(q[:, 0, :]),
+                                           np.ascontiguousarray(weights[:, 0]),
+                                           np.ascontiguousarray(values), flat, offsets,
+                                           counts, kernel.width, kernel.reach,
+                                           kernel.norm(q.shape[-1]), out)
+        return
     q = np.ascontiguousarray(q)
     patch = cg_deposit.line_patch_size(q, flat, offsets, counts, kernel.reach)
     cg_deposit.deposit_smooth_lines(q, np.ascontiguousarray(weights),
@@ -425,11 +434,14 @@ def _derived(name: str, s: dict[str, np.ndarray], coords: Coordinates) -> np.nda
     return np.asarray(out).reshape(shape + tail)
 
 
-def strain_rate(velocity: np.ndarray, coords: Coordinates) -> np.ndarray:
+def strain_rate(velocity: np.ndarray, coords: Coordinates,
+                across: Mapping[int, np.ndarray] | None = None) -> np.ndarray:
     """D_ab = (d_a V_b + d_b V_a)/2 of a velocity field on the grid (shape + (D,)), by second-
-    order finite differences (``numpy.gradient``) along resolved coordinates; derivatives along
-    averaged directions are zero. Cylindrical (r, theta, z) and polar (r, theta) components
-    carry the curvature terms of an axisymmetric (theta-averaged) field::
+    order finite differences (``numpy.gradient``) along resolved coordinates. Along an averaged
+    coordinate ``c`` the derivative is ``across[c]`` (dV/dx_c in that coordinate's units, the
+    field's shape + (D,); :func:`slab_gradient` measures it from the two halves of a thin
+    slab) and zero where none is given (a homogeneous direction). Cylindrical (r, theta, z)
+    and polar (r, theta) components carry the curvature terms of an axisymmetric (theta-averaged) field::
 
         D_thth = V_r / r,  D_rth = (dV_th/dr - V_th / r) / 2            (+ (1/r) dV_r/dth / 2,
                                                                           D_thth += (1/r) dV_th/dth
@@ -440,7 +452,19 @@ def strain_rate(velocity: np.ndarray, coords: Coordinates) -> np.ndarray:
     centres = coords.centres
     grad = np.zeros(velocity.shape + (dim,))  # grad[..., b, a] = d_a V_b in coordinates
 
-    def d(values: np.ndarray, coord: int) -> np.ndarray:
+    across = {} if across is None else dict(across)
+    for coord, gradient in across.items():
+        if coord in resolved or not 0 <= coord < len(coords.edges):
+            raise ValueError(f"across: keys are averaged coordinates of the grid "
+                             f"({[c for c in range(len(coords.edges)) if c not in resolved]}), "
+                             f"got {coord}")
+        if np.shape(gradient) != velocity.shape:
+            raise ValueError(f"across[{coord}]: dV/dx of shape {velocity.shape}, got "
+                             f"{np.shape(gradient)}")
+
+    def d(values: np.ndarray, coord: int, component: int) -> np.ndarray:
+        if coord in across:
+            return np.asarray(across[coord], dtype=float)[..., component]
         if coord not in resolved:
             return np.zeros_like(values)
         axis = resolved.index(coord)
@@ -452,23 +476,23 @@ def strain_rate(velocity: np.ndarray, coords: Coordinates) -> np.ndarray:
     if isinstance(coords, Cartesian):
         for b in range(dim):
             for a in range(dim):
-                grad[..., b, a] = d(velocity[..., b], a)
+                grad[..., b, a] = d(velocity[..., b], a, b)
         return 0.5 * (grad + np.swapaxes(grad, -1, -2))
     r = _radius_field(coords)
     v_r, v_t = velocity[..., 0], velocity[..., 1]
     out = np.zeros(velocity.shape + (dim,))
     with np.errstate(invalid="ignore", divide="ignore"):
-        out[..., 0, 0] = d(v_r, 0)
+        out[..., 0, 0] = d(v_r, 0, 0)
         out[..., 1, 1] = v_r / r
-        out[..., 0, 1] = 0.5 * (d(v_t, 0) - v_t / r)
+        out[..., 0, 1] = 0.5 * (d(v_t, 0, 1) - v_t / r)
         if isinstance(coords, Polar):
-            out[..., 1, 1] += d(v_t, 1) / r
-            out[..., 0, 1] += 0.5 * d(v_r, 1) / r
+            out[..., 1, 1] += d(v_t, 1, 1) / r
+            out[..., 0, 1] += 0.5 * d(v_r, 1, 0) / r
         else:
             v_z = velocity[..., 2]
-            out[..., 2, 2] = d(v_z, 1)
-            out[..., 0, 2] = 0.5 * (d(v_r, 1) + d(v_z, 0))
-            out[..., 1, 2] = 0.5 * d(v_t, 1)
+            out[..., 2, 2] = d(v_z, 1, 2)
+            out[..., 0, 2] = 0.5 * (d(v_r, 1, 0) + d(v_z, 0, 2))
+            out[..., 1, 2] = 0.5 * d(v_t, 1, 1)
     out[..., 1, 0] = out[..., 0, 1]
     if dim == 3:
         out[..., 2, 0] = out[..., 0, 2]
@@ -486,9 +510,43 @@ def _radius_field(coords: Cylindrical | Polar) -> np.ndarray:
     return np.broadcast_to(r.reshape(shape), coords.shape)
 
 
+def _with_edges(coords: Coordinates, coord: int, edges: Sequence[float]) -> Coordinates:
+    """The same grid with coordinate ``coord``'s bin edges replaced."""
+    all_edges = [edges if c == coord else e for c, e in enumerate(coords.edges)]
+    if isinstance(coords, Cylindrical):
+        return Cylindrical(*all_edges, origin=coords.origin, axis=coords.axis)
+    if isinstance(coords, Polar):
+        return Polar(*all_edges, centre=coords.centre)
+    return Cartesian(all_edges)
+
+
+def slab_gradient(frames: Iterable[Frame], coordinates: Coordinates, coordinate: int,
+                  kernel: Kernel | None = None, *, window: tuple[float, float] | None = None,
+                  types: Sequence[int] | None = None) -> np.ndarray:
+    """dV/dx_c across a slab the grid averages over: the mean velocities of its two halves
+    along coordinate ``c`` (``coordinate``, an averaged one), differenced over their centres'
+    spacing, half the slab's thickness. This is seed 002's half-layer scheme for dv_r/dz in a
+    layer of one cell (Sec. 5.3.3, "On the strain rate"); pass the result to
+    :func:`strain_rate` as ``across={c: gradient}``. Each half is coarse-grained with
+    ``kernel`` like the slab itself, in one pass over the frames; shape ``coordinates.shape +
+    (D,)``, in the grid's components, NaN where either half saw no grain."""
+    edges = coordinates.edges
+    if not 0 <= coordinate < len(edges) or coordinate in coordinates.resolved:
+        averaged = [c for c in range(len(edges)) if c not in coordinates.resolved]
+        raise ValueError(f"coordinate: one of the grid's averaged coordinates {averaged} (a "
+                         f"slab one bin thick), got {coordinate!r}")
+    lo, hi = edges[coordinate]
+    mid = 0.5 * (lo + hi)
+    lower, upper = coarse_grain_grids(
+        frames, [_with_edges(coordinates, coordinate, [lo, mid]),
+                 _with_edges(coordinates, coordinate, [mid, hi])],
+        kernel, window=window, contacts=False, types=types)
+    return (upper.velocity - lower.velocity) / (mid - lo)
+
+
 def coarse_grain(frames: Iterable[Frame], coordinates: Coordinates, kernel: Kernel | None = None,
                  *, window: tuple[float, float] | None = None, blocks: int = 1,
-                 contacts: bool = True) -> CGFields:
+                 contacts: bool = True, types: Sequence[int] | None = None) -> CGFields:
     """Time-averaged fields of the frames whose time lies in ``window`` (all when None).
 
     Parameters
@@ -501,17 +559,21 @@ def coarse_grain(frames: Iterable[Frame], coordinates: Coordinates, kernel: Kern
     blocks : number of consecutive groups of frames for error bars (>= 1; at most the
         number of frames).
     contacts : include the contact stress (frames must carry their contact listing).
+    types : the particle types that are the flow (all when None); the others (walls made of
+        particles) are left out of the densities, velocity and kinetic stress, while their
+        contacts with the flow stay in its contact stress (:func:`select_types`).
     """
     return coarse_grain_grids(frames, [coordinates], kernel, window=window, blocks=blocks,
-                              contacts=contacts)[0]
+                              contacts=contacts, types=types)[0]
 
 
 def coarse_grain_grids(frames: Iterable[Frame], grids: Sequence[Coordinates],
                        kernel: Kernel | None = None, *,
                        window: tuple[float, float] | None = None, blocks: int = 1,
-                       contacts: bool | Sequence[bool] = True) -> list[CGFields]:
+                       contacts: bool | Sequence[bool] = True,
+                       types: Sequence[int] | None = None) -> list[CGFields]:
     """:func:`coarse_grain` on several grids in one pass over the frames (a generator is
-    read once): one :class:`CGFields` per grid, with the same window and blocks.
+    read once): one :class:`CGFields` per grid, with the same window, blocks and types.
     ``contacts``: one flag for all grids, or one per grid."""
     kernel = Heaviside() if kernel is None else kernel
     if not isinstance(kernel, (Heaviside, Gaussian, Lucy)):
@@ -533,6 +595,8 @@ def coarse_grain_grids(frames: Iterable[Frame], grids: Sequence[Coordinates],
     for frame in frames:
         if window is not None and not window[0] <= frame.time <= window[1]:
             continue
+        if types is not None:
+            frame = select_types(frame, types)
         for store, coordinates, with_contacts in zip(per_frame, grids, flags):
             store.append(frame_sums(frame, coordinates, kernel, contacts=with_contacts))
         times.append(float(frame.time))
