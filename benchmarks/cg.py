@@ -18,9 +18,14 @@ The first call of each kernel compiles (or loads numba's cache); a warm-up on on
 before the clock starts, and the read is inside the timing. Prints the CPU, the layer and the
 seconds per case (median of ``--repeat``).
 
+``--load N`` runs N busy processes beside every measurement (a shared machine; the guide's
+"busy as well as idle"); ``--only`` keeps the cases whose name (e.g. ``3d-cylindrical-gaussian``)
+contains the given text.
+
 Usage::
 
-    python benchmarks/cg.py [--frames 100] [--grains 20000] [--repeat 3]
+    python benchmarks/cg.py [--frames 100] [--grains 20000] [--repeat 3] [--load 0]
+                            [--only 3d-cylindrical]
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from chute import LAYER, cpu_model  # benchmarks/chute.py, beside this script
+from shared import BUSY  # benchmarks/shared.py: a busy process that stops by itself
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -130,35 +136,47 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--grains", type=int, default=20000)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--load", type=int, default=0, help="busy processes beside the runs")
+    parser.add_argument("--only", default="", help="cases whose name contains this text")
     args = parser.parse_args()
-    print(f"CPU: {cpu_model()}  cores: {os.cpu_count()}  threading layer: {LAYER}")
+    print(f"CPU: {cpu_model()}  cores: {os.cpu_count()}  threading layer: {LAYER}  "
+          f"busy processes: {args.load}")
     cases = [(2, "cartesian", "heaviside"), (2, "cartesian", "gaussian"),
              (2, "cartesian", "lucy"), (3, "cylindrical", "heaviside"),
              (3, "cylindrical", "gaussian"), (3, "cartesian", "heaviside"),
              (3, "cartesian", "gaussian")]
+    cases = [c for c in cases if args.only in f"{c[0]}d-{c[1]}-{c[2]}"]
+    if not cases:
+        parser.error(f"--only: no case name contains {args.only!r}")
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         paths = {}
-        for dim in (2, 3):
+        for dim in sorted({c[0] for c in cases}):
             paths[dim] = Path(tmp) / f"cg{dim}d.h5"
             per_grain = write_trajectory(paths[dim], dim, args.grains, args.frames)
             print(f"{dim}D trajectory: {args.frames} frames x {args.grains} grains, "
                   f"{per_grain:.2f} contacts per grain, "
                   f"{paths[dim].stat().st_size / 1e6:.0f} MB")
         print(f"{'grid':<26}{'kernel':<11}{'threads':>8}{'seconds':>10}")
-        for dim, grid_kind, kernel in cases:
-            for threads in (1, 2):
-                times = [measure(paths[dim], dim, kernel, grid_kind, threads)["seconds"]
-                         for _ in range(args.repeat)]
-                grid = {(2, "cartesian"): "2D 50x50 Cartesian x-y",
-                        (3, "cartesian"): "3D 50x50 Cartesian x-z",
-                        (3, "cylindrical"): "3D 50x50 cylindrical r-z"}[dim, grid_kind]
-                med = statistics.median(times)
-                results.append({"grid": grid, "kernel": kernel, "threads": threads,
-                                "seconds": med, "runs": times})
-                print(f"{grid:<26}{kernel:<11}{threads:>8}{med:>10.1f}", flush=True)
+        busy = [subprocess.Popen([sys.executable, "-c", BUSY, "3600"]) for _ in range(args.load)]
+        try:
+            for dim, grid_kind, kernel in cases:
+                for threads in (1, 2):
+                    times = [measure(paths[dim], dim, kernel, grid_kind, threads)["seconds"]
+                             for _ in range(args.repeat)]
+                    grid = {(2, "cartesian"): "2D 50x50 Cartesian x-y",
+                            (3, "cartesian"): "3D 50x50 Cartesian x-z",
+                            (3, "cylindrical"): "3D 50x50 cylindrical r-z"}[dim, grid_kind]
+                    med = statistics.median(times)
+                    results.append({"grid": grid, "kernel": kernel, "threads": threads,
+                                    "seconds": med, "runs": times})
+                    print(f"{grid:<26}{kernel:<11}{threads:>8}{med:>10.1f}", flush=True)
+        finally:
+            for p in busy:
+                p.kill()
+                p.wait()
     print(json.dumps({"cpu": cpu_model(), "layer": LAYER, "frames": args.frames,
-                      "grains": args.grains, "results": results}))
+                      "grains": args.grains, "load": args.load, "results": results}))
 
 
 if __name__ == "__main__":

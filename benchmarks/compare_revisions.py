@@ -3,7 +3,9 @@
 Checks out ``--base`` (a git revision) into a temporary worktree and times ``--case``: the
 LAMMPS chute (``chute``: 32,000 spheres, ``--steps`` steps after 50 warm-up steps) or the
 2D hopper of ``grainflow demo`` (``hopper2d``: 1600 soft disks, drag limit, walls and
-reinsertion, ``--steps`` steps after 500 warm-up steps) with both source trees,
+reinsertion, ``--steps`` steps after 500 warm-up steps) or the smooth deformable-ring hopper
+of ``dp_hopper.py`` (``dp_smooth``: 1600 rings of 16 vertices, from a landed state given by
+``--state``) with both source trees,
 alternating them ``--repeat`` times on 1 and 2 threads, each measurement in a fresh process
 with the threading layer fixed (``NUMBA_THREADING_LAYER``, default ``omp``). Prints the CPU,
 the median particle-steps per second of each, their ratio, and whether the two trees give
@@ -13,6 +15,7 @@ Usage::
 
     python benchmarks/compare_revisions.py --base 8afff5a [--steps 1000] [--repeat 3]
     python benchmarks/compare_revisions.py --base fba8333 --case hopper2d --steps 10000
+    python benchmarks/compare_revisions.py --base HEAD --case dp_smooth --state landed.pkl
 """
 
 from __future__ import annotations
@@ -40,6 +43,12 @@ SETUP = {
                  "from grainflow.scenarios.hopper import HopperSection, build_hopper, prepare\n"
                  "sim = build_hopper(HopperSection(n=1600, orifice_width=10.0, E_sp=1000.0, "
                  "E_w=1000.0, lam=math.inf), 2, seed=0)\nprepare(sim)\nsim.run(500)\n"),
+    # --data: a pickled state_dict of this hopper after it has landed (dp_hopper.py's settle)
+    "dp_smooth": ("import math, pickle\nfrom pathlib import Path\n"
+                  "from grainflow.scenarios.hopper import HopperSection, build_hopper\n"
+                  "sim = build_hopper(HopperSection(convention='authors', particles='dp_smooth', "
+                  "n=1600, orifice_width=6.0, lam=math.inf), 2, seed=0)\n"
+                  "sim.load_state_dict(pickle.loads(Path(sys.argv[1]).read_bytes()))\n"),
 }
 TIMED = r"""
 sim.threads = int(os.environ["NUMBA_NUM_THREADS"])  # the count measured, not "auto"
@@ -71,7 +80,12 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--layer", default="omp", help="numba threading layer (omp, tbb, workqueue)")
     ap.add_argument("--case", default="chute", choices=sorted(SETUP))
+    ap.add_argument("--state", type=Path,
+                    help="dp_smooth: the landed hopper's pickled state_dict (write one with "
+                         "dp_hopper.py's settle phase)")
     args = ap.parse_args(argv)
+    if args.case == "dp_smooth" and (args.state is None or not args.state.is_file()):
+        ap.error("--state: the dp_smooth case needs the landed hopper's pickled state_dict")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         tree = tmp / "base"
@@ -81,6 +95,8 @@ def main(argv: list[str] | None = None) -> dict:
             data = tmp / "data.chute"  # plain text: older readers do not open .gz
             with gzip.open(REPO / "src/grainflow/data/chute/data.chute.gz", "rb") as f:
                 data.write_bytes(f.read())
+            if args.case == "dp_smooth":
+                data = args.state.resolve()
             trees = {"base": tree / "src", "current": REPO / "src"}
             results: dict = {"case": args.case, "cpu": cpu_model(), "layer": args.layer,
                              "steps": args.steps, "base": args.base}

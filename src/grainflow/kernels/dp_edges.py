@@ -128,21 +128,27 @@ def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, b
     ``i``; term 1: ``p = i`` on the edge starting at ``j``); zeros where there is no term
     (pairs with a particle in no ring included). Each row writes only its own slots."""
     n = row_ptr.shape[0] - 1
-    for i in prange(n):
-        for k in range(row_ptr[i], row_ptr[i + 1]):
-            j = nbr[k]
+    for row in prange(n):
+        # unsigned indices: numba wraps a negative signed index at every access (a compare
+        # and a select each); unsigned ones skip it
+        i = np.uint64(row)
+        in_ring = nxt[i] >= 0
+        for k in range(np.uint64(row_ptr[i]), np.uint64(row_ptr[i + 1])):
+            j = np.uint64(nbr[k])
             for h in range(6):
                 slot[k, h] = 0.0
-            if nxt[i] < 0 or nxt[j] < 0:
+            if not in_ring or nxt[j] < 0:
                 continue
             kind, t, d, sigma, rx, ry, fx, fy = term_force(
-                eps, mu, tangential, x, v, radius, j, i, nxt[i], prv[i], box_len, periodic)
+                eps, mu, tangential, x, v, radius, j, i, np.uint64(nxt[i]), np.uint64(prv[i]),
+                box_len, periodic)
             if kind != NONE:
                 slot[k, 0] = fx
                 slot[k, 1] = fy
                 slot[k, 2] = t
             kind, t, d, sigma, rx, ry, fx, fy = term_force(
-                eps, mu, tangential, x, v, radius, i, j, nxt[j], prv[j], box_len, periodic)
+                eps, mu, tangential, x, v, radius, i, j, np.uint64(nxt[j]), np.uint64(prv[j]),
+                box_len, periodic)
             if kind != NONE:
                 slot[k, 3] = fx
                 slot[k, 4] = fy
@@ -159,30 +165,31 @@ def gather_edge_forces(nxt, prv, frozen, row_ptr, col_ptr, col_pair, slot, x, bo
     length of the longest edge (for the reach check)."""
     n = row_ptr.shape[0] - 1
     longest = 0.0
-    for m in prange(n):
+    for row in prange(n):
+        m = np.uint64(row)  # unsigned indices, as in edge_pair_terms
         if nxt[m] < 0:
             continue
-        ex, ey = _vec(x, m, nxt[m], box_len, periodic)
+        ex, ey = _vec(x, m, np.uint64(nxt[m]), box_len, periodic)
         longest = max(longest, ex * ex + ey * ey)
         if frozen[m]:
             continue
         fx = 0.0
         fy = 0.0
-        for k in range(row_ptr[m], row_ptr[m + 1]):
+        for k in range(np.uint64(row_ptr[m]), np.uint64(row_ptr[m + 1])):
             w = 1.0 - slot[k, 2]
             fx += slot[k, 3] - w * slot[k, 0]
             fy += slot[k, 4] - w * slot[k, 1]
-        for q in range(col_ptr[m], col_ptr[m + 1]):
-            k = col_pair[q]
+        for q in range(np.uint64(col_ptr[m]), np.uint64(col_ptr[m + 1])):
+            k = np.uint64(col_pair[q])
             w = 1.0 - slot[k, 5]
             fx += slot[k, 0] - w * slot[k, 3]
             fy += slot[k, 1] - w * slot[k, 4]
-        z = prv[m]
-        for k in range(row_ptr[z], row_ptr[z + 1]):
+        z = np.uint64(prv[m])
+        for k in range(np.uint64(row_ptr[z]), np.uint64(row_ptr[z + 1])):
             fx -= slot[k, 2] * slot[k, 0]
             fy -= slot[k, 2] * slot[k, 1]
-        for q in range(col_ptr[z], col_ptr[z + 1]):
-            k = col_pair[q]
+        for q in range(np.uint64(col_ptr[z]), np.uint64(col_ptr[z + 1])):
+            k = np.uint64(col_pair[q])
             fx -= slot[k, 5] * slot[k, 3]
             fy -= slot[k, 5] * slot[k, 4]
         force[m, 0] += fx

@@ -51,7 +51,9 @@ def _ring_edges(x, ring, box_len, periodic, ex, ey):
     the positions relative to vertex 0 rebuilt from the edges (translation invariant)."""
     n = ring.shape[0]
     for s in range(n):
-        ex[s], ey[s] = _edge(x, ring[s], ring[(s + 1) % n], box_len, periodic)
+        # unsigned vertex indices: numba wraps a negative signed index at every access
+        nxt = s + 1 if s + 1 < n else 0
+        ex[s], ey[s] = _edge(x, np.uint64(ring[s]), np.uint64(ring[nxt]), box_len, periodic)
     area = 0.0
     px = 0.0
     py = 0.0
@@ -77,8 +79,8 @@ def shape_forces(index, a0, l0, ka, kl, kb, x, frozen, box_len, periodic, force)
         spring = kl * n
         bend = _bending(kb, a0[r], l0[r], n)
         for s in range(n):
-            p = (s - 1) % n  # previous edge / vertex
-            q = (s + 1) % n  # next edge / vertex
+            p = s - 1 if s > 0 else n - 1  # previous edge / vertex
+            q = s + 1 if s + 1 < n else 0  # next edge / vertex
             # area: d a / d r_s = (1/2)(y_{s+1} - y_{s-1}, x_{s-1} - x_{s+1})
             fx = -da * 0.5 * (ey[p] + ey[s])
             fy = da * 0.5 * (ex[p] + ex[s])
@@ -90,12 +92,12 @@ def shape_forces(index, a0, l0, ka, kl, kb, x, frozen, box_len, periodic, force)
             fx += -cp * ex[p] + cs * ex[s]
             fy += -cp * ey[p] + cs * ey[s]
             # bending: b_k = l_k - l_{k-1}; F_s = -c (b_{s-1} - 2 b_s + b_{s+1})
-            pp = (s - 2) % n
+            pp = p - 1 if p > 0 else n - 1
             bx = (ex[p] - ex[pp]) - 2.0 * (ex[s] - ex[p]) + (ex[q] - ex[s])
             by = (ey[p] - ey[pp]) - 2.0 * (ey[s] - ey[p]) + (ey[q] - ey[s])
             fx -= bend * bx
             fy -= bend * by
-            i = ring[s]
+            i = np.uint64(ring[s])
             if not frozen[i]:
                 force[i, 0] += fx
                 force[i, 1] += fy
