@@ -1,4 +1,4 @@
-"""Rheology next to a jet's target (grainflow.analysis.jet_rheology; seed 002, Sano's thesis,
+"""Rheology next to a jet's target (grainflow.analysis.jet.rheology; seed 002, Sano's thesis,
 chapters 5 and 6): the seed's meshes, its half-cell strain rate, the wall particles' role, the
 equation of state of a gas, pooling, fits, flatness and the figures."""
 
@@ -9,7 +9,7 @@ from math import pi
 import numpy as np
 import pytest
 
-from grainflow.analysis import jet_rheology as jr
+from grainflow.analysis.jet import rheology as jr
 from grainflow.analysis.cg import Cylindrical, coarse_grain, select_types
 from grainflow.analysis.kinetic_theory import pressure_ratio
 from grainflow.frame import ANCHOR, BOND, PAIR, Box, Contacts, Frame

@@ -1,12 +1,12 @@
 """Figures of the rheology next to a granular jet's target
-(:mod:`grainflow.analysis.jet_rheology`), after seed 002 (H. Sano, PhD thesis (2013)):
+(:mod:`grainflow.analysis.jet.rheology`), after seed 002 (H. Sano, PhD thesis (2013)):
 stress profiles (Figs. 5.3, 6.4), velocity and temperature profiles (Figs. 5.4, 6.3), the
 equation of state against Garzo-Dufty (Figs. 5.5, 5.6), mu* against I with the linear law
 (Fig. 5.7), phi against I_T and I_s with the divergence fits (Fig. 6.5) and mu* against I_s
 with the friction laws (Fig. 6.7).
 
-Each function takes :class:`~grainflow.analysis.jet_rheology.LayerFields` (or
-:class:`~grainflow.analysis.jet_rheology.KineticTheoryCheck`) results and a path, writes a PNG
+Each function takes :class:`~grainflow.analysis.jet.rheology.LayerFields` (or
+:class:`~grainflow.analysis.jet.rheology.KineticTheoryCheck`) results and a path, writes a PNG
 and returns the path. ``labels`` names each layer; layers with the same label share a colour
 and a legend entry (e.g. the (a) and (b) layers of several phi_0 in Figs. 6.5 and 6.7). Error
 bars are the layers' standard errors. Units: d, m, t_0 = d/u0.
@@ -22,7 +22,7 @@ from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.ticker import NullFormatter
 
-from grainflow.analysis.jet_rheology import KineticTheoryCheck, LayerFields
+from grainflow.analysis.jet.rheology import KineticTheoryCheck, LayerFields
 from grainflow.analysis.rheology import DivergenceFit, MuLinearFit, MuOfIFit, MuPowerLawFit
 from grainflow.plotting.cg_plots import fit_parameters_text
 from grainflow.plotting.figures import new_figure, save_figure

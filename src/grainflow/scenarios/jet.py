@@ -5,7 +5,7 @@ speed ``u0`` are 1, so times are in ``d/u0``. Every grain has the mass ``m``, wh
 diameter (Chapter 3: "DEM for grains with identical mass m"); the wall particles too.
 
 Geometry (fixed, and what :mod:`grainflow.analysis.jet` and
-:mod:`grainflow.analysis.jet_rheology` assume):
+:mod:`grainflow.analysis.jet.rheology` assume):
 
 - 3D (``jet3d``): the jet is a cylinder of diameter ``D_jet`` about the z axis (or a
   rectangle of aspect ratio ``l`` and area ``A_cs`` for the anisotropy runs of Sec. 4.2),

@@ -225,7 +225,7 @@ def _rheology_3d(points: SweepPoints, window: tuple[float, float]
     """The 3D rheology sweep, each run's frames read once: pooled layer fields per
     (phi_tilde, mu_p), and per mu_p the flatness per component at phi_tilde = 0.9
     (Table 5.1) as (replica mean, standard error)."""
-    from grainflow.analysis.jet_rheology import layer_fields_3d, layer_flatness, pool
+    from grainflow.analysis.jet.rheology import layer_fields_3d, layer_flatness, pool
 
     groups: dict[tuple[float, float], list[Any]] = {}
     flat: dict[float, dict[str, list[float]]] = {}
@@ -246,7 +246,7 @@ def _rheology_3d(points: SweepPoints, window: tuple[float, float]
 
 def _layers_2d(points: SweepPoints, window: tuple[float, float]) -> dict[float, tuple[Any, Any]]:
     """Pooled layers (a) and (b) per phi_tilde of the 2D rheology sweep."""
-    from grainflow.analysis.jet_rheology import layer_fields_2d, pool
+    from grainflow.analysis.jet.rheology import layer_fields_2d, pool
 
     groups: dict[float, list[tuple[Any, ...]]] = {}
     for p, rundir in zip(points.params, points.rundirs):
@@ -296,7 +296,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
               n_workers: int | None = None, progress: str = "auto") -> Path:
     """Run (or continue) the jet study into ``out_dir`` and write ``out_dir/report.md``."""
     from grainflow.analysis.jet import eccentricity, fit_psi0
-    from grainflow.analysis.jet_rheology import (
+    from grainflow.analysis.jet.rheology import (
         fit_divergence_2d,
         fit_friction_2d,
         fit_friction_3d,

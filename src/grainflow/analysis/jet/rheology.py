@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike
 from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.cg import (CGFields, Cartesian, Cylindrical, Heaviside, coarse_grain_grids,
                                    combine, select_types)
+from grainflow.analysis.jet._common import TARGET_TYPE
 from grainflow.analysis.kinetic_theory import RANDOM_CLOSE_PACKING, pressure_ratio
 from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, MuPowerLawFit,
                                          effective_friction, fit_divergence, fit_mu_linear,
@@ -64,10 +65,6 @@ __all__ = ["GRAIN_TYPES", "TARGET_TYPE", "KineticTheoryCheck", "LayerFields", "f
 
 #: Particle types of the grains (2D bidisperse jets: 0 small, 1 large).
 GRAIN_TYPES = (0, 1)
-#: Particle type of the target's wall particles (the value of
-#: ``grainflow.scenarios.jet.TARGET_TYPE``, not imported to keep this module free of the
-#: scenario layer's dependencies).
-TARGET_TYPE = 2
 
 _KERNEL = Heaviside()
 
