@@ -16,7 +16,7 @@ is within ``|b - a| + sigma`` of the edge's start ``a``, so the list must reach 
 edge beyond touching: :meth:`EdgeContacts.neighbor_reach` is ``reach_factor * l0_max``, with
 ``l0_max`` the largest rest edge length ``sqrt(4 a tan(pi/N_v)/N_v)`` of the rings present
 when the operation is added (from their areas ``a``). Every force evaluation measures the
-longest edge (one pass over the vertices, inside the force gather) and raises a ValueError
+longest edge (the pass that stores the edge vectors, before the contact terms) and raises a ValueError
 naming ``reach_factor`` when it exceeds that reach minus the edge thickness (one thickness
 of margin), in Python and in the compiled step loop alike. The reach is fixed at set-up
 (and kept in checkpoints): rings inserted later are served as long as their edges pass
@@ -35,7 +35,8 @@ import numpy as np
 from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import PAIR
-from grainflow.kernels.dp_edges import edge_contact_list, edge_pair_terms, gather_edge_forces
+from grainflow.kernels.dp_edges import (edge_contact_list, edge_pair_terms, gather_edge_forces,
+                                        ring_edge_vectors)
 from grainflow.kernels.dp_shape import ring_areas
 from grainflow.rings import rest_length, state_ring_table
 
@@ -47,14 +48,14 @@ REACH_ERROR = ("reach_factor: a deformable-ring edge became longer than the neig
 
 
 def _edge_step(a, time, dt, last):
-    """:meth:`EdgeContacts.compute` in the compiled step loop (``TERMS`` and ``GATHER``
-    bound)."""
-    TERMS(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
-          a[11], a[12])
-    longest = GATHER(a[3], a[4], a[13], a[8], a[14], a[15], a[12], a[5], a[10],  # noqa: F821
-                     a[11], a[16])
-    if longest > a[17]:
+    """:meth:`EdgeContacts.compute` in the compiled step loop (``EDGES``, ``TERMS`` and
+    ``GATHER`` bound)."""
+    longest = EDGES(a[3], a[5], a[10], a[11], a[12])  # noqa: F821
+    if longest > a[19]:
         raise ValueError(REACH_ERROR)
+    TERMS(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
+          a[11], a[12], a[13], a[14])
+    GATHER(a[3], a[4], a[15], a[16], a[17], a[13], a[14], a[18])  # noqa: F821
 
 
 class EdgeContacts(Force):
@@ -105,6 +106,8 @@ class EdgeContacts(Force):
         self._prv = np.zeros(0, dtype=np.int64)
         self._thickness = 0.0
         self._slot = np.zeros((0, 6))
+        self._edges = np.zeros((0, 2))
+        self._row_acc = np.zeros((0, 4))
 
     # ----------------------------------------------------------------- rings
     def setup(self, ctx: ForceContext) -> None:
@@ -147,20 +150,21 @@ class EdgeContacts(Force):
         g = ctx.geometry
         if self._slot.shape[0] != nl.n_pairs:
             self._slot = np.zeros((nl.n_pairs, 6))
+        if self._edges.shape[0] != st.n:
+            self._edges = np.zeros((st.n, 2))
+            self._row_acc = np.zeros((st.n, 4))
         limit = self._limit()  # compared squared, sign kept: a negative limit always fails
         return (self.epsilon, self.mu_k, self.kinetic_on == "tangential", self._nxt,
                 self._prv, st.x, st.v, st.radius, nl.row_ptr, nl.nbr, g.length, g.periodic,
-                self._slot, st.frozen, nl.col_ptr, nl.col_pair, st.force,
-                limit * abs(limit))
+                self._edges, self._slot, self._row_acc, st.frozen, nl.col_ptr, nl.col_pair,
+                st.force, limit * abs(limit))
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
         """Add the edge-contact forces (no history: ``update`` changes nothing); refuse an
         edge longer than the reach allows."""
         a = self._args(ctx)
-        edge_pair_terms(*a[:13])
-        longest = gather_edge_forces(a[3], a[4], a[13], a[8], a[14], a[15], a[12], a[5],
-                                     a[10], a[11], a[16])
-        if longest > a[17]:
+        longest = ring_edge_vectors(a[3], a[5], a[10], a[11], a[12])
+        if longest > a[19]:
             raise ValueError(
                 f"reach_factor: an edge of length {np.sqrt(longest):.4g} is longer than the "
                 f"neighbour reach {self.neighbor_reach():.4g} (reach_factor "
@@ -168,17 +172,22 @@ class EdgeContacts(Force):
                 f"when EdgeContacts was added) minus the edge thickness "
                 f"{self._thickness:.4g}; raise reach_factor, or add the rings before "
                 "EdgeContacts")
+        edge_pair_terms(*a[:15])
+        gather_edge_forces(a[3], a[4], a[15], a[16], a[17], a[13], a[14], a[18])
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         """:meth:`compute` for the compiled step loop (:func:`_edge_step`)."""
         # the parallel kernels on one thread too: their serial twins run 10x (pass 1) and
         # 1.7x (pass 2) slower (measured on a 6400-vertex hopper, docs/dp.md)
         return step_call(_edge_step, "dp_edges", self._args(ctx), serial_twins=False,
-                         TERMS=edge_pair_terms, GATHER=gather_edge_forces)
+                         EDGES=ring_edge_vectors, TERMS=edge_pair_terms,
+                         GATHER=gather_edge_forces)
 
     def _contact_list(self, ctx: ForceContext) -> tuple:
         """:func:`~grainflow.kernels.dp_edges.edge_contact_list` now."""
-        return edge_contact_list(*self._args(ctx)[:12])
+        a = self._args(ctx)
+        ring_edge_vectors(a[3], a[5], a[10], a[11], a[12])  # scratch, a function of x alone
+        return edge_contact_list(*a[:13])
 
     # ------------------------------------------------------------ observers
     def potential_energy(self, ctx: ForceContext) -> float:
@@ -234,4 +243,5 @@ class EdgeContacts(Force):
         self.l0_max = float(data.get("l0_max", self.l0_max))
 
     def nbytes(self) -> int:
-        return int(self._slot.nbytes + self._nxt.nbytes + self._prv.nbytes)
+        return int(self._slot.nbytes + self._nxt.nbytes + self._prv.nbytes
+                   + self._edges.nbytes + self._row_acc.nbytes)

@@ -50,13 +50,17 @@ rings both terms are evaluated, term 0 (``p = j``, edge starting at ``i``) and t
 (``p = i``, edge starting at ``j``). Every (vertex, edge) pair within reach is evaluated
 exactly once, through the listed pair of the vertex and the edge's start.
 
-Determinism: :func:`edge_pair_terms` (parallel over the list's rows) writes each term's
-force on ``p`` and its ``t`` into the pair's slot, ``slot[k] = (f0x, f0y, t0, f1x, f1y, t1)``,
-and touches nothing else; :func:`gather_edge_forces` (parallel over particles) then sums for
-each particle, in a fixed order, the slots that touch it: its row, its column (in the
-transpose's ascending order), and its previous vertex's row and column (the edges it ends).
-Each particle's sum is written by one thread in an order that does not depend on the thread
-count, so forces are bitwise the same for any number of threads.
+Three passes, each parallel and each writing only what one iteration owns:
+:func:`ring_edge_vectors` (over particles) stores every ring edge ``r_b - r_a`` once, with the
+longest edge for the reach check; :func:`edge_pair_terms` (over the list's rows) writes each
+term's force on ``p`` and its ``t`` into the pair's slot, ``slot[k] = (f0x, f0y, t0, f1x,
+f1y, t1)``, and sums the row's own shares into ``row_acc[i]`` (the force on ``i`` and the
+share its edge passes to ``nxt[i]``) in list order; :func:`gather_edge_forces` (over
+particles) then adds for each particle, in a fixed order, its row's share, its column's slots
+(in the transpose's ascending order), its previous vertex's passed-on share and that vertex's
+column's slots (the edge it ends). Each particle's sum is written by one thread in an order
+that does not depend on the thread count, so forces are bitwise the same for any number of
+threads.
 """
 
 from __future__ import annotations
@@ -77,29 +81,51 @@ def _vec(x, i, j, box_len, periodic):
             minimum_image(x[j, 1] - x[i, 1], box_len[1], periodic[1]))
 
 
+@njit(cache=True, parallel=True)
+def ring_edge_vectors(nxt, x, box_len, periodic, edges):
+    """Pass 0: ``edges[i] = r_{nxt[i]} - r_i`` (minimum image) for every ring vertex ``i``,
+    the edge starting at ``i``; zeros for particles in no ring. Returns the squared length
+    of the longest edge (for the reach check). Each particle writes only its own row."""
+    n = nxt.shape[0]
+    longest = 0.0
+    for row in prange(n):
+        i = np.uint64(row)  # unsigned indices: numba wraps a negative signed index at every access
+        if nxt[i] < 0:
+            edges[i, 0] = 0.0
+            edges[i, 1] = 0.0
+            continue
+        ex, ey = _vec(x, i, np.uint64(nxt[i]), box_len, periodic)
+        edges[i, 0] = ex
+        edges[i, 1] = ey
+        longest = max(longest, ex * ex + ey * ey)
+    return longest
+
+
 @njit(cache=True, inline="always")
-def edge_term(x, p, a, b, z, box_len, periodic):
-    """Closest point of vertex ``p`` on edge ``(a, b)`` by the module's rule (``z``: start
-    of the previous edge): ``(kind, t, rx, ry)`` with ``(rx, ry) = r_p - q``."""
-    ex, ey = _vec(x, a, b, box_len, periodic)
-    wx, wy = _vec(x, a, p, box_len, periodic)
+def edge_term(wx, wy, edges, a, z):
+    """Closest point of vertex ``p`` on edge ``(a, b)`` by the module's rule, from
+    ``(wx, wy) = r_p - r_a`` and the edge vectors (``edges[a] = r_b - r_a``, ``edges[z] =
+    r_a - r_z`` for ``z`` the start of the previous edge): ``(kind, t, rx, ry)`` with
+    ``(rx, ry) = r_p - q``."""
+    ex = edges[a, 0]
+    ey = edges[a, 1]
     t = (wx * ex + wy * ey) / (ex * ex + ey * ey)
     if t > 1.0:
         return NONE, 0.0, 0.0, 0.0
     if t >= 0.0:
         return STRIP, t, wx - t * ex, wy - t * ey
-    fx, fy = _vec(x, z, a, box_len, periodic)
-    if wx * fx + wy * fy > 0.0:  # t_prev > 1: the outer wedge of corner a
+    if wx * edges[z, 0] + wy * edges[z, 1] > 0.0:  # t_prev > 1: the outer wedge of corner a
         return CAP, 0.0, wx, wy
     return NONE, 0.0, 0.0, 0.0
 
 
 @njit(cache=True, inline="always")
-def term_force(eps, mu, tangential, x, v, radius, p, a, b, z, box_len, periodic):
-    """One (vertex ``p``, edge ``(a, b)``) term: ``(kind, t, d, sigma, rx, ry, fx, fy)``
-    with the force ``(fx, fy)`` on ``p`` (harmonic repulsion and kinetic friction);
-    ``kind = NONE`` where there is no contact (``d >= sigma`` or ``d = 0`` too)."""
-    kind, t, rx, ry = edge_term(x, p, a, b, z, box_len, periodic)
+def term_force(eps, mu, tangential, v, radius, edges, p, a, b, z, wx, wy):
+    """One (vertex ``p``, edge ``(a, b)``) term, ``(wx, wy) = r_p - r_a``:
+    ``(kind, t, d, sigma, rx, ry, fx, fy)`` with the force ``(fx, fy)`` on ``p`` (harmonic
+    repulsion and kinetic friction); ``kind = NONE`` where there is no contact (``d >= sigma``
+    or ``d = 0`` too)."""
+    kind, t, rx, ry = edge_term(wx, wy, edges, a, z)
     sigma = radius[p] + radius[a]
     d2 = rx * rx + ry * ry
     if kind == NONE or d2 >= sigma * sigma or d2 == 0.0:
@@ -120,89 +146,131 @@ def term_force(eps, mu, tangential, x, v, radius, p, a, b, z, box_len, periodic)
     return kind, t, d, sigma, rx, ry, fx, fy
 
 
+@njit(cache=True, inline="always")
+def _segment_distance2(wx, wy, ex, ey):
+    """Squared distance from ``r_a + w`` to the segment ``[r_a, r_a + e]``, with ``t`` clamped
+    to [0, 1] by min and max (no branch): the ``d^2`` :func:`edge_term` gives in the strip and
+    at an end cap, computed the same way, and a lower bound of it elsewhere."""
+    t = min(max((wx * ex + wy * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+    rx = wx - t * ex
+    ry = wy - t * ey
+    return rx * rx + ry * ry
+
+
+@njit(cache=True, inline="always")
+def _near_either(x, radius, edges, i, j, box_len, periodic):
+    """Whether vertex ``j`` is within ``sigma`` of the segment of the edge starting at ``i``
+    or ``i`` of the edge starting at ``j``: necessary for either term of the pair to touch.
+    Most listed pairs fail it; answering it without the rule's branches keeps the branch
+    predictor right on them (the full rule runs only for the few that pass)."""
+    wx, wy = _vec(x, i, j, box_len, periodic)
+    sigma = radius[i] + radius[j]
+    near0 = _segment_distance2(wx, wy, edges[i, 0], edges[i, 1]) < sigma * sigma
+    near1 = _segment_distance2(-wx, -wy, edges[j, 0], edges[j, 1]) < sigma * sigma
+    return near0 | near1
+
+
 @njit(cache=True, parallel=True)
 def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, box_len,
-                    periodic, slot):
+                    periodic, edges, slot, row_acc):
     """Pass 1: both terms of every listed pair ``k = (i, j)`` into
     ``slot[k] = (f0x, f0y, t0, f1x, f1y, t1)`` (term 0: ``p = j`` on the edge starting at
     ``i``; term 1: ``p = i`` on the edge starting at ``j``); zeros where there is no term
-    (pairs with a particle in no ring included). Each row writes only its own slots."""
+    (pairs with a particle in no ring included). The row's own shares are summed on the way,
+    in list order: ``row_acc[i] = (P_x, P_y, Q_x, Q_y)`` with ``P`` the force on ``i``
+    (``+F`` of term 1 as ``p``, ``-(1 - t0) F`` of term 0 as ``a``) and ``Q`` the force
+    on ``nxt[i]`` (``-t0 F`` of term 0 as ``b``). Each row writes only its own slots and its
+    own ``row_acc``. ``edges``: :func:`ring_edge_vectors` of this configuration; both terms
+    share the branch ``r_j - r_i``."""
     n = row_ptr.shape[0] - 1
     for row in prange(n):
         # unsigned indices: numba wraps a negative signed index at every access (a compare
         # and a select each); unsigned ones skip it
         i = np.uint64(row)
         in_ring = nxt[i] >= 0
+        px = 0.0
+        py = 0.0
+        qx = 0.0
+        qy = 0.0
         for k in range(np.uint64(row_ptr[i]), np.uint64(row_ptr[i + 1])):
             j = np.uint64(nbr[k])
-            for h in range(6):
-                slot[k, h] = 0.0
-            if not in_ring or nxt[j] < 0:
-                continue
-            kind, t, d, sigma, rx, ry, fx, fy = term_force(
-                eps, mu, tangential, x, v, radius, j, i, np.uint64(nxt[i]), np.uint64(prv[i]),
-                box_len, periodic)
-            if kind != NONE:
-                slot[k, 0] = fx
-                slot[k, 1] = fy
-                slot[k, 2] = t
-            kind, t, d, sigma, rx, ry, fx, fy = term_force(
-                eps, mu, tangential, x, v, radius, i, j, np.uint64(nxt[j]), np.uint64(prv[j]),
-                box_len, periodic)
-            if kind != NONE:
-                slot[k, 3] = fx
-                slot[k, 4] = fy
-                slot[k, 5] = t
+            f0x = 0.0
+            f0y = 0.0
+            t0 = 0.0
+            f1x = 0.0
+            f1y = 0.0
+            t1 = 0.0
+            if not (in_ring and nxt[j] >= 0):
+                pass
+            elif _near_either(x, radius, edges, i, j, box_len, periodic):
+                wx, wy = _vec(x, i, j, box_len, periodic)  # r_j - r_i; -w is r_i - r_j exactly
+                kind, t, d, sigma, rx, ry, fx, fy = term_force(
+                    eps, mu, tangential, v, radius, edges, j, i, np.uint64(nxt[i]),
+                    np.uint64(prv[i]), wx, wy)
+                if kind != NONE:
+                    f0x = fx
+                    f0y = fy
+                    t0 = t
+                kind, t, d, sigma, rx, ry, fx, fy = term_force(
+                    eps, mu, tangential, v, radius, edges, i, j, np.uint64(nxt[j]),
+                    np.uint64(prv[j]), -wx, -wy)
+                if kind != NONE:
+                    f1x = fx
+                    f1y = fy
+                    t1 = t
+            slot[k, 0] = f0x
+            slot[k, 1] = f0y
+            slot[k, 2] = t0
+            slot[k, 3] = f1x
+            slot[k, 4] = f1y
+            slot[k, 5] = t1
+            w = 1.0 - t0
+            px += f1x - w * f0x
+            py += f1y - w * f0y
+            qx -= t0 * f0x
+            qy -= t0 * f0y
+        row_acc[i, 0] = px
+        row_acc[i, 1] = py
+        row_acc[i, 2] = qx
+        row_acc[i, 3] = qy
 
 
 @njit(cache=True, parallel=True)
-def gather_edge_forces(nxt, prv, frozen, row_ptr, col_ptr, col_pair, slot, x, box_len,
-                       periodic, force):
-    """Pass 2: add to every ring vertex ``m`` (unless frozen) the slots that touch it, in
-    this fixed order: its row (``+F`` of term 1 as ``p``, ``-(1 - t) F`` of term 0 as
-    ``a``), its column (``+F`` of term 0, ``-(1 - t) F`` of term 1), then the row and column
-    of ``prv[m]`` (``-t F`` as ``b`` of the edge ending at ``m``). Returns the squared
-    length of the longest edge (for the reach check)."""
-    n = row_ptr.shape[0] - 1
-    longest = 0.0
+def gather_edge_forces(nxt, prv, frozen, col_ptr, col_pair, slot, row_acc, force):
+    """Pass 2: add to every ring vertex ``m`` (unless frozen), in this fixed order, its row's
+    share ``row_acc[m]``'s ``P``, its column (``+F`` of term 0, ``-(1 - t1) F`` of term 1),
+    then what the edge ending at ``m`` passes on: ``Q`` of ``prv[m]``'s row and
+    ``-t1 F`` of each slot in ``prv[m]``'s column."""
+    n = col_ptr.shape[0] - 1
     for row in prange(n):
         m = np.uint64(row)  # unsigned indices, as in edge_pair_terms
-        if nxt[m] < 0:
+        if nxt[m] < 0 or frozen[m]:
             continue
-        ex, ey = _vec(x, m, np.uint64(nxt[m]), box_len, periodic)
-        longest = max(longest, ex * ex + ey * ey)
-        if frozen[m]:
-            continue
-        fx = 0.0
-        fy = 0.0
-        for k in range(np.uint64(row_ptr[m]), np.uint64(row_ptr[m + 1])):
-            w = 1.0 - slot[k, 2]
-            fx += slot[k, 3] - w * slot[k, 0]
-            fy += slot[k, 4] - w * slot[k, 1]
+        fx = row_acc[m, 0]
+        fy = row_acc[m, 1]
         for q in range(np.uint64(col_ptr[m]), np.uint64(col_ptr[m + 1])):
             k = np.uint64(col_pair[q])
             w = 1.0 - slot[k, 5]
             fx += slot[k, 0] - w * slot[k, 3]
             fy += slot[k, 1] - w * slot[k, 4]
         z = np.uint64(prv[m])
-        for k in range(np.uint64(row_ptr[z]), np.uint64(row_ptr[z + 1])):
-            fx -= slot[k, 2] * slot[k, 0]
-            fy -= slot[k, 2] * slot[k, 1]
+        fx += row_acc[z, 2]
+        fy += row_acc[z, 3]
         for q in range(np.uint64(col_ptr[z]), np.uint64(col_ptr[z + 1])):
             k = np.uint64(col_pair[q])
             fx -= slot[k, 5] * slot[k, 3]
             fy -= slot[k, 5] * slot[k, 4]
         force[m, 0] += fx
         force[m, 1] += fy
-    return longest
 
 
 @njit(cache=True)
 def edge_contact_list(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, box_len,
-                      periodic):
+                      periodic, edges):
     """Every term in contact now, in list order (term 0 before term 1 of each pair):
-    ``(p, a, b, kind, t, d, sigma, force on p (M, 3), branch r_p - q (M, 3))``.
-    Read-only (analyses, energies, contact listings)."""
+    ``(p, a, b, kind, t, d, sigma, force on p (M, 3), branch r_p - q (M, 3))``, the same
+    terms as :func:`edge_pair_terms` (``edges``: :func:`ring_edge_vectors` of this
+    configuration). Read-only (analyses, energies, contact listings)."""
     n = row_ptr.shape[0] - 1
     cap = 2 * nbr.shape[0]
     ip = np.empty(cap, dtype=np.int64)
@@ -217,11 +285,13 @@ def edge_contact_list(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr,
             j = nbr[k]
             if nxt[i] < 0 or nxt[j] < 0:
                 continue
+            wx, wy = _vec(x, i, j, box_len, periodic)
             for s in range(2):
                 p, a = (j, i) if s == 0 else (i, j)
+                sign = 1.0 if s == 0 else -1.0
                 kind, t, d, sigma, rx, ry, fx, fy = term_force(
-                    eps, mu, tangential, x, v, radius, p, a, nxt[a], prv[a], box_len,
-                    periodic)
+                    eps, mu, tangential, v, radius, edges, p, a, nxt[a], prv[a], sign * wx,
+                    sign * wy)
                 if kind == NONE:
                     continue
                 ip[m] = p

@@ -69,14 +69,34 @@ def _ring_edges(x, ring, box_len, periodic, ex, ey):
 @njit(cache=True, parallel=True)
 def shape_forces(index, a0, l0, ka, kl, kb, x, frozen, box_len, periodic, force):
     """Add the shape force of every ring ``index[r]`` (vertex indices in ring order) with
-    preferred area ``a0[r]`` and edge length ``l0[r]`` to ``force``."""
+    preferred area ``a0[r]`` and edge length ``l0[r]`` to ``force``. One pass over a ring's
+    edges stores each edge, its spring coefficient ``k_l N (|l| - l0)/|l|`` (one square root
+    and one division per edge) and the area (as :func:`_ring_edges` sums it); a second adds
+    the forces vertex by vertex."""
     n_rings, n = index.shape
+    spring = kl * n
     for r in prange(n_rings):
         ring = index[r]
         ex = np.empty(n)
         ey = np.empty(n)
-        da = ka / a0[r] * (_ring_edges(x, ring, box_len, periodic, ex, ey) - a0[r])
-        spring = kl * n
+        coef = np.empty(n)
+        area = 0.0
+        px = 0.0
+        py = 0.0
+        for s in range(n):
+            # unsigned vertex indices: numba wraps a negative signed index at every access
+            nxt = s + 1 if s + 1 < n else 0
+            lx, ly = _edge(x, np.uint64(ring[s]), np.uint64(ring[nxt]), box_len, periodic)
+            ex[s] = lx
+            ey[s] = ly
+            qx = px + lx
+            qy = py + ly
+            area += px * qy - qx * py
+            px = qx
+            py = qy
+            length = np.sqrt(lx ** 2 + ly ** 2)
+            coef[s] = spring * (length - l0[r]) / length
+        da = ka / a0[r] * (0.5 * area - a0[r])
         bend = _bending(kb, a0[r], l0[r], n)
         for s in range(n):
             p = s - 1 if s > 0 else n - 1  # previous edge / vertex
@@ -85,12 +105,8 @@ def shape_forces(index, a0, l0, ka, kl, kb, x, frozen, box_len, periodic, force)
             fx = -da * 0.5 * (ey[p] + ey[s])
             fy = da * 0.5 * (ex[p] + ex[s])
             # perimeter springs of edges s-1 (ends at s) and s (starts at s)
-            lp = np.sqrt(ex[p] ** 2 + ey[p] ** 2)
-            ls = np.sqrt(ex[s] ** 2 + ey[s] ** 2)
-            cp = spring * (lp - l0[r]) / lp
-            cs = spring * (ls - l0[r]) / ls
-            fx += -cp * ex[p] + cs * ex[s]
-            fy += -cp * ey[p] + cs * ey[s]
+            fx += -coef[p] * ex[p] + coef[s] * ex[s]
+            fy += -coef[p] * ey[p] + coef[s] * ey[s]
             # bending: b_k = l_k - l_{k-1}; F_s = -c (b_{s-1} - 2 b_s + b_{s+1})
             pp = p - 1 if p > 0 else n - 1
             bx = (ex[p] - ex[pp]) - 2.0 * (ex[s] - ex[p]) + (ex[q] - ex[s])
