@@ -35,8 +35,8 @@ import numpy as np
 from grainflow.engine.fast_path import StepCall, step_call
 from grainflow.engine.operations import ContactRows, Force, ForceContext, TimeScale
 from grainflow.frame import PAIR
-from grainflow.kernels.dp_edges import (edge_contact_list, edge_pair_terms, gather_edge_forces,
-                                        ring_edge_vectors)
+from grainflow.kernels.dp_edges import (add_edge_forces, column_shares, edge_contact_list,
+                                        edge_pair_terms, ring_edge_vectors)
 from grainflow.kernels.dp_shape import ring_areas
 from grainflow.rings import rest_length, state_ring_table
 
@@ -48,14 +48,15 @@ REACH_ERROR = ("reach_factor: a deformable-ring edge became longer than the neig
 
 
 def _edge_step(a, time, dt, last):
-    """:meth:`EdgeContacts.compute` in the compiled step loop (``EDGES``, ``TERMS`` and
-    ``GATHER`` bound)."""
+    """:meth:`EdgeContacts.compute` in the compiled step loop (``EDGES``, ``TERMS``,
+    ``COLUMNS`` and ``ADD`` bound)."""
     longest = EDGES(a[3], a[5], a[10], a[11], a[12])  # noqa: F821
     if longest > a[19]:
         raise ValueError(REACH_ERROR)
     TERMS(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],  # noqa: F821
           a[11], a[12], a[13], a[14])
-    GATHER(a[3], a[4], a[15], a[16], a[17], a[13], a[14], a[18])  # noqa: F821
+    COLUMNS(a[3], a[16], a[17], a[13], a[14])  # noqa: F821
+    ADD(a[3], a[4], a[15], a[14], a[18])  # noqa: F821
 
 
 class EdgeContacts(Force):
@@ -107,7 +108,7 @@ class EdgeContacts(Force):
         self._thickness = 0.0
         self._slot = np.zeros((0, 6))
         self._edges = np.zeros((0, 2))
-        self._row_acc = np.zeros((0, 4))
+        self._shares = np.zeros((0, 8))
 
     # ----------------------------------------------------------------- rings
     def setup(self, ctx: ForceContext) -> None:
@@ -152,11 +153,11 @@ class EdgeContacts(Force):
             self._slot = np.zeros((nl.n_pairs, 6))
         if self._edges.shape[0] != st.n:
             self._edges = np.zeros((st.n, 2))
-            self._row_acc = np.zeros((st.n, 4))
+            self._shares = np.zeros((st.n, 8))
         limit = self._limit()  # compared squared, sign kept: a negative limit always fails
         return (self.epsilon, self.mu_k, self.kinetic_on == "tangential", self._nxt,
                 self._prv, st.x, st.v, st.radius, nl.row_ptr, nl.nbr, g.length, g.periodic,
-                self._edges, self._slot, self._row_acc, st.frozen, nl.col_ptr, nl.col_pair,
+                self._edges, self._slot, self._shares, st.frozen, nl.col_ptr, nl.col_pair,
                 st.force, limit * abs(limit))
 
     def compute(self, ctx: ForceContext, update: bool) -> None:
@@ -173,7 +174,8 @@ class EdgeContacts(Force):
                 f"{self._thickness:.4g}; raise reach_factor, or add the rings before "
                 "EdgeContacts")
         edge_pair_terms(*a[:15])
-        gather_edge_forces(a[3], a[4], a[15], a[16], a[17], a[13], a[14], a[18])
+        column_shares(a[3], a[16], a[17], a[13], a[14])
+        add_edge_forces(a[3], a[4], a[15], a[14], a[18])
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         """:meth:`compute` for the compiled step loop (:func:`_edge_step`)."""
@@ -181,7 +183,7 @@ class EdgeContacts(Force):
         # 1.7x (pass 2) slower (measured on a 6400-vertex hopper, docs/dp.md)
         return step_call(_edge_step, "dp_edges", self._args(ctx), serial_twins=False,
                          EDGES=ring_edge_vectors, TERMS=edge_pair_terms,
-                         GATHER=gather_edge_forces)
+                         COLUMNS=column_shares, ADD=add_edge_forces)
 
     def _contact_list(self, ctx: ForceContext) -> tuple:
         """:func:`~grainflow.kernels.dp_edges.edge_contact_list` now."""
@@ -244,4 +246,4 @@ class EdgeContacts(Force):
 
     def nbytes(self) -> int:
         return int(self._slot.nbytes + self._nxt.nbytes + self._prv.nbytes
-                   + self._edges.nbytes + self._row_acc.nbytes)
+                   + self._edges.nbytes + self._shares.nbytes)

@@ -50,17 +50,21 @@ rings both terms are evaluated, term 0 (``p = j``, edge starting at ``i``) and t
 (``p = i``, edge starting at ``j``). Every (vertex, edge) pair within reach is evaluated
 exactly once, through the listed pair of the vertex and the edge's start.
 
-Three passes, each parallel and each writing only what one iteration owns:
-:func:`ring_edge_vectors` (over particles) stores every ring edge ``r_b - r_a`` once, with the
-longest edge for the reach check; :func:`edge_pair_terms` (over the list's rows) writes each
-term's force on ``p`` and its ``t`` into the pair's slot, ``slot[k] = (f0x, f0y, t0, f1x,
-f1y, t1)``, and sums the row's own shares into ``row_acc[i]`` (the force on ``i`` and the
-share its edge passes to ``nxt[i]``) in list order; :func:`gather_edge_forces` (over
-particles) then adds for each particle, in a fixed order, its row's share, its column's slots
-(in the transpose's ascending order), its previous vertex's passed-on share and that vertex's
-column's slots (the edge it ends). Each particle's sum is written by one thread in an order
-that does not depend on the thread count, so forces are bitwise the same for any number of
-threads.
+Four passes, each parallel and each writing only what one iteration owns:
+
+1. :func:`ring_edge_vectors` (over particles) stores every ring edge ``r_b - r_a`` once and
+   returns the longest, for the reach check;
+2. :func:`edge_pair_terms` (over the list's rows) writes each term's force on ``p`` and its
+   ``t`` into the pair's slot, ``slot[k] = (f0x, f0y, t0, f1x, f1y, t1)``, and sums the row's
+   own shares in list order into ``shares[i, 0:4]``: ``P``, the force on ``i``, and ``Q``,
+   what the edge starting at ``i`` passes to ``nxt[i]``;
+3. :func:`column_shares` (over particles) sums the same two shares of the slots in each
+   particle's column (in the transpose's ascending order) into ``shares[m, 4:8]``;
+4. :func:`add_edge_forces` (over particles) adds to each particle its row's and column's
+   ``P`` and its previous vertex's row's and column's ``Q``, in that order.
+
+Every sum has one writer and an order that does not depend on the thread count, so forces
+are bitwise the same for any number of threads.
 """
 
 from __future__ import annotations
@@ -172,15 +176,15 @@ def _near_either(x, radius, edges, i, j, box_len, periodic):
 
 @njit(cache=True, parallel=True)
 def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, box_len,
-                    periodic, edges, slot, row_acc):
+                    periodic, edges, slot, shares):
     """Pass 1: both terms of every listed pair ``k = (i, j)`` into
     ``slot[k] = (f0x, f0y, t0, f1x, f1y, t1)`` (term 0: ``p = j`` on the edge starting at
     ``i``; term 1: ``p = i`` on the edge starting at ``j``); zeros where there is no term
     (pairs with a particle in no ring included). The row's own shares are summed on the way,
-    in list order: ``row_acc[i] = (P_x, P_y, Q_x, Q_y)`` with ``P`` the force on ``i``
+    in list order: ``shares[i, 0:4] = (P_x, P_y, Q_x, Q_y)`` with ``P`` the force on ``i``
     (``+F`` of term 1 as ``p``, ``-(1 - t0) F`` of term 0 as ``a``) and ``Q`` the force
     on ``nxt[i]`` (``-t0 F`` of term 0 as ``b``). Each row writes only its own slots and its
-    own ``row_acc``. ``edges``: :func:`ring_edge_vectors` of this configuration; both terms
+    own ``shares``. ``edges``: :func:`ring_edge_vectors` of this configuration; both terms
     share the branch ``r_j - r_i``."""
     n = row_ptr.shape[0] - 1
     for row in prange(n):
@@ -229,39 +233,55 @@ def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, b
             py += f1y - w * f0y
             qx -= t0 * f0x
             qy -= t0 * f0y
-        row_acc[i, 0] = px
-        row_acc[i, 1] = py
-        row_acc[i, 2] = qx
-        row_acc[i, 3] = qy
+        shares[i, 0] = px
+        shares[i, 1] = py
+        shares[i, 2] = qx
+        shares[i, 3] = qy
 
 
 @njit(cache=True, parallel=True)
-def gather_edge_forces(nxt, prv, frozen, col_ptr, col_pair, slot, row_acc, force):
-    """Pass 2: add to every ring vertex ``m`` (unless frozen), in this fixed order, its row's
-    share ``row_acc[m]``'s ``P``, its column (``+F`` of term 0, ``-(1 - t1) F`` of term 1),
-    then what the edge ending at ``m`` passes on: ``Q`` of ``prv[m]``'s row and
-    ``-t1 F`` of each slot in ``prv[m]``'s column."""
+def column_shares(nxt, col_ptr, col_pair, slot, shares):
+    """Pass 2: for every ring vertex ``m``, the shares of the slots in its column (pairs
+    ``(i, m)``, in the transpose's ascending order) into ``shares[m, 4:8] = (P_x, P_y, Q_x,
+    Q_y)``: ``P`` the force on ``m`` (``+F`` of term 0 as ``p``, ``-(1 - t1) F`` of term 1
+    as ``a``), ``Q`` the force on ``nxt[m]`` (``-t1 F`` of term 1 as ``b``). One loop over
+    the column serves both; each vertex writes only its own row."""
     n = col_ptr.shape[0] - 1
+    for row in prange(n):
+        m = np.uint64(row)  # unsigned indices, as in edge_pair_terms
+        if nxt[m] < 0:
+            continue
+        px = 0.0
+        py = 0.0
+        qx = 0.0
+        qy = 0.0
+        for q in range(np.uint64(col_ptr[m]), np.uint64(col_ptr[m + 1])):
+            k = np.uint64(col_pair[q])
+            t1 = slot[k, 5]
+            w = 1.0 - t1
+            px += slot[k, 0] - w * slot[k, 3]
+            py += slot[k, 1] - w * slot[k, 4]
+            qx -= t1 * slot[k, 3]
+            qy -= t1 * slot[k, 4]
+        shares[m, 4] = px
+        shares[m, 5] = py
+        shares[m, 6] = qx
+        shares[m, 7] = qy
+
+
+@njit(cache=True, parallel=True)
+def add_edge_forces(nxt, prv, frozen, shares, force):
+    """Pass 3: add to every ring vertex ``m`` (unless frozen), in this fixed order, the
+    ``P`` of its row and of its column and the ``Q`` of the row and of the column of
+    ``prv[m]`` (what the edge ending at ``m`` passes on)."""
+    n = nxt.shape[0]
     for row in prange(n):
         m = np.uint64(row)  # unsigned indices, as in edge_pair_terms
         if nxt[m] < 0 or frozen[m]:
             continue
-        fx = row_acc[m, 0]
-        fy = row_acc[m, 1]
-        for q in range(np.uint64(col_ptr[m]), np.uint64(col_ptr[m + 1])):
-            k = np.uint64(col_pair[q])
-            w = 1.0 - slot[k, 5]
-            fx += slot[k, 0] - w * slot[k, 3]
-            fy += slot[k, 1] - w * slot[k, 4]
         z = np.uint64(prv[m])
-        fx += row_acc[z, 2]
-        fy += row_acc[z, 3]
-        for q in range(np.uint64(col_ptr[z]), np.uint64(col_ptr[z + 1])):
-            k = np.uint64(col_pair[q])
-            fx -= slot[k, 5] * slot[k, 3]
-            fy -= slot[k, 5] * slot[k, 4]
-        force[m, 0] += fx
-        force[m, 1] += fy
+        force[m, 0] += ((shares[m, 0] + shares[m, 4]) + shares[z, 2]) + shares[z, 6]
+        force[m, 1] += ((shares[m, 1] + shares[m, 5]) + shares[z, 3]) + shares[z, 7]
 
 
 @njit(cache=True)
