@@ -140,6 +140,41 @@ def test_other_particles_are_ignored() -> None:
     assert not sim.state.force.any()
 
 
+def test_pair_terms_are_the_full_rule_on_every_listed_pair() -> None:
+    """The force pass tests each listed pair's distance to both edge segments before it runs
+    the vertex-edge rule. On a pressed, jittered 4 x 4 packing (many terms in contact, many
+    listed pairs that are not) every slot equals what the unfiltered rule gives for that
+    (vertex, edge): :func:`grainflow.kernels.dp_edges.edge_contact_list` runs it on every
+    listed pair."""
+    from grainflow.kernels.dp_edges import edge_pair_terms, ring_edge_vectors
+
+    sim = _simulation()
+    spacing = 1.9 * RADIUS  # closer than touching: every neighbour pair of rings overlaps
+    grid = np.array([[ix, iy] for ix in range(4) for iy in range(4)], dtype=float) * spacing
+    rng = np.random.default_rng(11)
+    add_rings(sim, grid - grid.mean(axis=0) + 0.02 * rng.standard_normal(grid.shape), AREA,
+              contact="smooth", angles=rng.uniform(0, 2 * np.pi, len(grid)))
+    sim.state.x[:, :2] += 0.01 * rng.standard_normal((sim.state.n, 2))
+    sim.state.v[:, :2] = 0.3 * rng.standard_normal((sim.state.n, 2))
+    edges = sim.add_force(EdgeContacts(1.0, 0.4, "tangential"))
+    sim.compute_forces()
+    a = edges._args(sim.context)
+    ring_edge_vectors(a[3], a[5], a[10], a[11], a[12])
+    edge_pair_terms(*a[:15])
+    slot = a[13]
+    p, edge_start, _, _, t, _, _, force, _ = _terms(sim, edges)
+    full = {(int(pi), int(ai)): (force[k, 0], force[k, 1], t[k])
+            for k, (pi, ai) in enumerate(zip(p, edge_start))}
+    rows = np.repeat(np.arange(sim.state.n), np.diff(a[8]))
+    expected = np.zeros_like(slot)
+    for k, (i, j) in enumerate(zip(rows, a[9])):
+        expected[k, 0:3] = full.get((int(j), int(i)), (0.0, 0.0, 0.0))  # term 0: p = j
+        expected[k, 3:6] = full.get((int(i), int(j)), (0.0, 0.0, 0.0))  # term 1: p = i
+    touching = (expected[:, [0, 3]] != 0).any(axis=1)
+    assert len(full) > 40 and (~touching).sum() > 5 * touching.sum()  # both kinds present
+    np.testing.assert_array_equal(slot, expected)
+
+
 def _collision(dt: float, mu_k: float = 0.0) -> tuple[Simulation, ShapeForce, EdgeContacts]:
     """Two rings meeting nearly head-on at relative speed 0.5, zero total momentum; bending
     rigidity keeps their corners convex (see the energy test)."""
