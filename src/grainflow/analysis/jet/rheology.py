@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike
 from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.cg import (CGFields, Cartesian, Cylindrical, Heaviside, coarse_grain_grids,
                                    combine, select_types)
-from grainflow.analysis.jet._common import TARGET_TYPE
+from grainflow.analysis.jet._common import TARGET_TYPE, check_window
 from grainflow.analysis.kinetic_theory import RANDOM_CLOSE_PACKING, pressure_ratio
 from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, MuPowerLawFit,
                                          effective_friction, fit_divergence, fit_mu_linear,
@@ -154,11 +154,6 @@ def _mesh_2d(target_radius: float, layer, n_y: int) -> _Mesh:
 # --------------------------------------------------------------------------------------------
 
 
-def _check_window(window) -> None:
-    if window is not None and not (len(window) == 2 and window[0] <= window[1]):
-        raise ValueError(f"window: (t_start, t_end) with t_start <= t_end, got {window!r}")
-
-
 def _accumulate(frames: Iterable[Frame], grids: Sequence, contacts: Sequence[bool],
                 window, blocks: int, grains: Sequence[int]) -> list[CGFields]:
     """:func:`grainflow.analysis.cg.coarse_grain_grids` of the grains of every frame in the
@@ -166,7 +161,7 @@ def _accumulate(frames: Iterable[Frame], grids: Sequence, contacts: Sequence[boo
     pass."""
     if not isinstance(blocks, (int, np.integer)) or isinstance(blocks, bool) or blocks < 1:
         raise ValueError(f"blocks: a positive integer, got {blocks!r}")
-    _check_window(window)
+    check_window(window)
     return coarse_grain_grids(frames, list(grids), _KERNEL, window=window, blocks=int(blocks),
                               contacts=list(contacts), types=grains)
 
@@ -683,7 +678,7 @@ def layer_fluctuations(frames: Iterable[Frame], target_radius: float, *, dim: in
                         10 if n_cells is None else n_cells)
     else:
         raise ValueError(f"dim: must be 2 or 3, got {dim!r}")
-    _check_window(window)
+    check_window(window)
     n = mesh.edges.size - 1
     chosen = np.arange(n) if cells is None else np.asarray(cells, dtype=int).ravel()
     if chosen.size == 0 or np.any((chosen < 0) | (chosen >= n)):
