@@ -179,8 +179,9 @@ class EdgeContacts(Force):
 
     def step_call(self, ctx: ForceContext) -> StepCall:
         """:meth:`compute` for the compiled step loop (:func:`_edge_step`)."""
-        # the parallel kernels on one thread too: their serial twins run 10x (pass 1) and
-        # 1.7x (pass 2) slower (measured on a 6400-vertex hopper, docs/dp.md)
+        # the parallel kernels on one thread too: the serial twins of the earlier two-pass
+        # kernels ran 10x (terms) and 1.7x (gather) slower (a 6400-vertex hopper,
+        # BENCHMARKS.md); not remeasured for the four passes
         return step_call(_edge_step, "dp_edges", self._args(ctx), serial_twins=False,
                          EDGES=ring_edge_vectors, TERMS=edge_pair_terms,
                          COLUMNS=column_shares, ADD=add_edge_forces)

@@ -87,13 +87,13 @@ def _vec(x, i, j, box_len, periodic):
 
 @njit(cache=True, parallel=True)
 def ring_edge_vectors(nxt, x, box_len, periodic, edges):
-    """Pass 0: ``edges[i] = r_{nxt[i]} - r_i`` (minimum image) for every ring vertex ``i``,
+    """Pass 1: ``edges[i] = r_{nxt[i]} - r_i`` (minimum image) for every ring vertex ``i``,
     the edge starting at ``i``; zeros for particles in no ring. Returns the squared length
     of the longest edge (for the reach check). Each particle writes only its own row."""
     n = nxt.shape[0]
     longest = 0.0
     for row in prange(n):
-        i = np.uint64(row)  # unsigned indices: numba wraps a negative signed index at every access
+        i = np.uint64(row)  # unsigned indices, as in edge_pair_terms
         if nxt[i] < 0:
             edges[i, 0] = 0.0
             edges[i, 1] = 0.0
@@ -162,13 +162,12 @@ def _segment_distance2(wx, wy, ex, ey):
 
 
 @njit(cache=True, inline="always")
-def _near_either(x, radius, edges, i, j, box_len, periodic):
-    """Whether vertex ``j`` is within ``sigma`` of the segment of the edge starting at ``i``
-    or ``i`` of the edge starting at ``j``: necessary for either term of the pair to touch.
-    Most listed pairs fail it; answering it without the rule's branches keeps the branch
-    predictor right on them (the full rule runs only for the few that pass)."""
-    wx, wy = _vec(x, i, j, box_len, periodic)
-    sigma = radius[i] + radius[j]
+def _near_either(wx, wy, sigma, edges, i, j):
+    """Whether vertex ``j`` (at ``r_i + w``) is within ``sigma`` of the segment of the edge
+    starting at ``i`` or ``i`` of the edge starting at ``j``: necessary for either term of
+    the pair to touch. Most listed pairs fail it; answering it without the rule's branches
+    keeps the branch predictor right on them (the full rule runs only for the few that
+    pass)."""
     near0 = _segment_distance2(wx, wy, edges[i, 0], edges[i, 1]) < sigma * sigma
     near1 = _segment_distance2(-wx, -wy, edges[j, 0], edges[j, 1]) < sigma * sigma
     return near0 | near1
@@ -177,7 +176,7 @@ def _near_either(x, radius, edges, i, j, box_len, periodic):
 @njit(cache=True, parallel=True)
 def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, box_len,
                     periodic, edges, slot, shares):
-    """Pass 1: both terms of every listed pair ``k = (i, j)`` into
+    """Pass 2: both terms of every listed pair ``k = (i, j)`` into
     ``slot[k] = (f0x, f0y, t0, f1x, f1y, t1)`` (term 0: ``p = j`` on the edge starting at
     ``i``; term 1: ``p = i`` on the edge starting at ``j``); zeros where there is no term
     (pairs with a particle in no ring included). The row's own shares are summed on the way,
@@ -204,24 +203,23 @@ def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, b
             f1x = 0.0
             f1y = 0.0
             t1 = 0.0
-            if not (in_ring and nxt[j] >= 0):
-                pass
-            elif _near_either(x, radius, edges, i, j, box_len, periodic):
+            if in_ring and nxt[j] >= 0:
                 wx, wy = _vec(x, i, j, box_len, periodic)  # r_j - r_i; -w is r_i - r_j exactly
-                kind, t, d, sigma, rx, ry, fx, fy = term_force(
-                    eps, mu, tangential, v, radius, edges, j, i, np.uint64(nxt[i]),
-                    np.uint64(prv[i]), wx, wy)
-                if kind != NONE:
-                    f0x = fx
-                    f0y = fy
-                    t0 = t
-                kind, t, d, sigma, rx, ry, fx, fy = term_force(
-                    eps, mu, tangential, v, radius, edges, i, j, np.uint64(nxt[j]),
-                    np.uint64(prv[j]), -wx, -wy)
-                if kind != NONE:
-                    f1x = fx
-                    f1y = fy
-                    t1 = t
+                if _near_either(wx, wy, radius[i] + radius[j], edges, i, j):
+                    kind, t, d, sigma, rx, ry, fx, fy = term_force(
+                        eps, mu, tangential, v, radius, edges, j, i, np.uint64(nxt[i]),
+                        np.uint64(prv[i]), wx, wy)
+                    if kind != NONE:
+                        f0x = fx
+                        f0y = fy
+                        t0 = t
+                    kind, t, d, sigma, rx, ry, fx, fy = term_force(
+                        eps, mu, tangential, v, radius, edges, i, j, np.uint64(nxt[j]),
+                        np.uint64(prv[j]), -wx, -wy)
+                    if kind != NONE:
+                        f1x = fx
+                        f1y = fy
+                        t1 = t
             slot[k, 0] = f0x
             slot[k, 1] = f0y
             slot[k, 2] = t0
@@ -241,7 +239,7 @@ def edge_pair_terms(eps, mu, tangential, nxt, prv, x, v, radius, row_ptr, nbr, b
 
 @njit(cache=True, parallel=True)
 def column_shares(nxt, col_ptr, col_pair, slot, shares):
-    """Pass 2: for every ring vertex ``m``, the shares of the slots in its column (pairs
+    """Pass 3: for every ring vertex ``m``, the shares of the slots in its column (pairs
     ``(i, m)``, in the transpose's ascending order) into ``shares[m, 4:8] = (P_x, P_y, Q_x,
     Q_y)``: ``P`` the force on ``m`` (``+F`` of term 0 as ``p``, ``-(1 - t1) F`` of term 1
     as ``a``), ``Q`` the force on ``nxt[m]`` (``-t1 F`` of term 1 as ``b``). One loop over
@@ -271,7 +269,7 @@ def column_shares(nxt, col_ptr, col_pair, slot, shares):
 
 @njit(cache=True, parallel=True)
 def add_edge_forces(nxt, prv, frozen, shares, force):
-    """Pass 3: add to every ring vertex ``m`` (unless frozen), in this fixed order, the
+    """Pass 4: add to every ring vertex ``m`` (unless frozen), in this fixed order, the
     ``P`` of its row and of its column and the ``Q`` of the row and of the column of
     ``prv[m]`` (what the edge ending at ``m`` passes on)."""
     n = nxt.shape[0]
