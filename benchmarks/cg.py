@@ -43,7 +43,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from chute import LAYER, cpu_model  # benchmarks/chute.py, beside this script
-from shared import BUSY  # benchmarks/shared.py: a busy process that stops by itself
+from shared import busy_processes  # benchmarks/shared.py, beside this script
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -158,8 +158,7 @@ def main() -> None:
                   f"{per_grain:.2f} contacts per grain, "
                   f"{paths[dim].stat().st_size / 1e6:.0f} MB")
         print(f"{'grid':<26}{'kernel':<11}{'threads':>8}{'seconds':>10}")
-        busy = [subprocess.Popen([sys.executable, "-c", BUSY, "3600"]) for _ in range(args.load)]
-        try:
+        with busy_processes(args.load, 3600):
             for dim, grid_kind, kernel in cases:
                 for threads in (1, 2):
                     times = [measure(paths[dim], dim, kernel, grid_kind, threads)["seconds"]
@@ -171,10 +170,6 @@ def main() -> None:
                     results.append({"grid": grid, "kernel": kernel, "threads": threads,
                                     "seconds": med, "runs": times})
                     print(f"{grid:<26}{kernel:<11}{threads:>8}{med:>10.1f}", flush=True)
-        finally:
-            for p in busy:
-                p.kill()
-                p.wait()
     print(json.dumps({"cpu": cpu_model(), "layer": LAYER, "frames": args.frames,
                       "grains": args.grains, "load": args.load, "results": results}))
 

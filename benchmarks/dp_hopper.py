@@ -13,9 +13,9 @@ state in a fresh process with the threading layer fixed (``NUMBA_THREADING_LAYER
 ``omp``), warms the compiled step loop for 200 steps and times ``--steps`` steps, on each of
 ``--threads`` (default 1 and 2; ``auto`` lets the engine choose), ``--repeat`` times
 (median). Prints the CPU, the layer, particle-steps (SP) or vertex-steps (DP) per second, and
-the cost of a vertex-step over the cost of an SP
-particle-step (issue 13 asks <= 2). ``--load N`` runs N busy processes beside every timed
-measurement (a shared machine; the guide's "busy as well as idle").
+the cost of a vertex-step over the cost of an SP particle-step (issue 13 asks <= 2).
+``--load N`` runs N busy processes beside every timed measurement (a shared machine; the
+guide's "busy as well as idle").
 
 Usage::
 
@@ -35,7 +35,7 @@ import tempfile
 from pathlib import Path
 
 from chute import cpu_model  # benchmarks/chute.py, beside this script
-from shared import BUSY  # benchmarks/shared.py: a busy process that stops by itself
+from shared import busy_processes  # benchmarks/shared.py, beside this script
 
 REPO = Path(__file__).resolve().parents[1]
 KINDS = ("sp", "dp_rough", "dp_smooth")
@@ -61,7 +61,7 @@ if not saved.is_file():  # the settle phase: run the fill --settle t0, save the 
     sys.exit()
 sim.load_state_dict(pickle.loads(saved.read_bytes()))
 sim.run(200)  # compiles (or loads) and warms the step loop
-touching = int(sum((r.kind == PAIR).sum() for r in [sim.contacts()]))
+touching = int((sim.contacts().kind == PAIR).sum())
 builds = sim.rebuilds
 t0 = time.perf_counter()
 sim.run(steps)
@@ -108,12 +108,8 @@ def main(argv: list[str] | None = None) -> dict:
             if not states[kind].is_file():
                 results[f"{kind}_settled"] = measure(kind, args.n, args.settle, args.steps, 2,
                                                      args.layer, states[kind])
-        busy = [subprocess.Popen([sys.executable, "-c", BUSY, "7200"]) for _ in range(args.load)]
-        try:
+        with busy_processes(args.load, 7200):
             timed(args, states, results)
-        finally:
-            for b in busy:
-                b.kill()
     print(f"2D hopper, {args.n} bodies, drag limit, after {args.settle:g} t0, {args.steps} "
           f"timed steps, {results['cpu']}, threading layer {args.layer}, busy processes "
           f"{args.load}, median of {args.repeat}")

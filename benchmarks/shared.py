@@ -26,10 +26,26 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from chute import benchmark_files, cpu_model, run_lammps  # benchmarks/chute.py, beside this
 
 BUSY = "import time, sys\nend = time.time() + float(sys.argv[1])\nwhile time.time() < end:\n    pass\n"
+
+
+@contextmanager
+def busy_processes(count: int, seconds: float) -> Iterator[None]:
+    """``count`` CPU-bound processes beside the block: each stops by itself after ``seconds``
+    and is stopped when the block ends; half a second lets them get going first."""
+    busy = [subprocess.Popen([sys.executable, "-c", BUSY, str(seconds)]) for _ in range(count)]
+    try:
+        time.sleep(0.5 if busy else 0.0)
+        yield
+    finally:
+        for p in busy:
+            p.kill()
+            p.wait()
 
 WORKER = r"""
 import json, math, sys, time
@@ -86,10 +102,7 @@ def main(argv: list[str] | None = None) -> dict:
     LAYER = args.layer
     results: dict = {"date": time.strftime("%Y-%m-%d"), "machine": cpu_model(),
                      "cores": os.cpu_count(), "threading_layer": LAYER, "load": args.load}
-    busy = [subprocess.Popen([sys.executable, "-c", BUSY, str(args.max_seconds)])
-            for _ in range(args.load)]
-    try:
-        time.sleep(0.5 if busy else 0.0)
+    with busy_processes(args.load, args.max_seconds):
         for case, steps in (("chute", args.chute_steps), ("hopper2d", args.hopper_steps)):
             for threads in ("1", "2", "auto"):
                 r = run_grainflow(case, steps, threads)
@@ -103,10 +116,6 @@ def main(argv: list[str] | None = None) -> dict:
             for ranks in (1, 2):
                 results[f"chute_lammps_{ranks}"] = run_lammps(data, deck, args.chute_steps,
                                                               ranks)["psps"]
-    finally:
-        for p in busy:
-            p.kill()
-            p.wait()
     print(f"shared machine: {args.load} busy process(es) beside each run; {results['machine']} "
           f"({results['cores']} cores), numba threading layer {LAYER}")
     print(f"{'case':<10}{'code':<11}{'workers':>9}{'M particle-steps/s':>20}")
