@@ -72,7 +72,9 @@ def shape_forces(index, a0, l0, ka, kl, kb, x, frozen, box_len, periodic, force)
     preferred area ``a0[r]`` and edge length ``l0[r]`` to ``force``. One pass over a ring's
     edges stores each edge, its spring coefficient ``k_l N (|l| - l0)/|l|`` (one square root
     and one division per edge) and the area (as :func:`_ring_edges` sums it); a second adds
-    the forces vertex by vertex."""
+    the forces vertex by vertex. The first pass repeats :func:`_ring_edges` inline: calling it
+    from this parallel loop made the kernel 2.7x slower (0.48 against 0.18 ms for 1600 rings
+    on one thread), though the forces are bitwise the same."""
     n_rings, n = index.shape
     spring = kl * n
     for r in prange(n_rings):
