@@ -87,7 +87,7 @@ def make_simulation(config: RunConfig, state: ParticleState,
     run = config.run
     sim = Simulation(state, run.dt or default_dt or 1.0, skin=run.skin or default_skin,
                      integrator=integrator_by_name(run.integrator), sort_every=run.sort_every,
-                     check_every=run.check_every,
+                     list_check=run.list_check or "absolute", check_every=run.check_every,
                      max_overlap_fraction=run.max_overlap_fraction, seed=run.seed)
     if isinstance(laws, ContactLaw):
         laws = [(laws, None)]

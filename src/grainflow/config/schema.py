@@ -120,6 +120,11 @@ class RunSection(_Model):
     seed: Count = Field(0, description="seed of the run's random-number generator")
     skin: quantity("length", gt=0) | None = Field(None, description="Verlet skin; 0.2 r_mean")
     sort_every: Steps = Field(10, description="re-sort particles every N list builds")
+    list_check: Literal["absolute", "relative"] | None = Field(
+        None, description="when the neighbour list is rebuilt: 'absolute' once a particle "
+        "moved half the skin, 'relative' once a pair may have moved the skin against each "
+        "other (flows that move as a whole: streams, jets); same forces either way; "
+        "default: the scenario's ('relative' for stream, else 'absolute')")
     check_every: Steps = Field(100, description="full health check every N steps (docs/config.md)")
     max_overlap_fraction: Finite = Field(
         0.5, gt=0, description="overlap / radius beyond which the run is declared unstable")

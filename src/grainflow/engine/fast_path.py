@@ -18,9 +18,10 @@ next step's first half are one call (for velocity Verlet one pass over the parti
 instead of two, adding the same terms in the same order). The same kernels run in the same
 order on the same arrays, so a run is bitwise the same either way (tests/test_fast_path.py).
 
-The loop stops early, returning control to Python, after the first half of a step in which
-some particle has moved more than half the skin: that step is finished in Python, where the
-list is rebuilt. An operation without a step call (or more than :data:`SLOTS` of them) means
+The loop stops early, returning control to Python, after the first half of a step after
+which the list may miss a pair (:mod:`grainflow.kernels.list_check`: some particle has moved
+more than half the skin, or under the relative check some pair the skin against each other):
+that step is finished in Python, where the list is rebuilt. An operation without a step call (or more than :data:`SLOTS` of them) means
 the simulation steps in Python, as before.
 """
 
@@ -31,7 +32,7 @@ from typing import Any, NamedTuple
 import numba
 from numba import njit
 
-from grainflow.kernels.neighbors import max_displacement_sq
+from grainflow.kernels.list_check import stale_kernel
 from grainflow.kernels.specialize import serial, specialize
 
 #: Force operations (pair interactions first) one compiled loop can hold: the smooth DP
@@ -96,25 +97,24 @@ def step_call(template: Any, name: str, args: tuple, *, serial_twins: bool = Tru
     return StepCall(adapter, args)
 
 
-def _run_steps(k, time, dt, limit, x, x_ref, box_len, periodic, pre_args, post_args,
+def _run_steps(k, time, dt, check_args, pre_args, post_args,
                joined_args, a0, a1, a2, a3, a4, a5, a6, a7):
     """Up to ``k`` steps from clock time ``time``: ``(steps done, new time, pending)``.
 
-    ``pending``: the last step's first half is done but some particle moved more than
-    ``sqrt(limit)`` since the list was built; the caller finishes that step (not counted in
+    ``pending``: the last step's first half is done but the list may miss a pair
+    (``STALE(check_args)``); the caller finishes that step (not counted in
     the steps done), rebuilding the list and computing every force in Python. Otherwise the
     force operations are told which step is the ``k``-th, the last. Between two steps of
     the run the second half of one and the first half of the next are one call,
     ``JOINED`` (:meth:`~grainflow.engine.operations.Integrator.step_calls`). Template:
-    ``PRE``, ``POST``, ``JOINED``, ``OP0`` ... ``OP7`` and ``DISPLACEMENT``
-    (:func:`~grainflow.kernels.neighbors.max_displacement_sq`) are bound by
-    :class:`FastPath`.
+    ``PRE``, ``POST``, ``JOINED``, ``OP0`` ... ``OP7`` and ``STALE``
+    (:func:`~grainflow.kernels.list_check.stale_kernel`) are bound by :class:`FastPath`.
     """
     if k == 0:
         return 0, time, False
     PRE(pre_args, time, dt)  # noqa: F821 (bound names)
     for s in range(k):
-        if DISPLACEMENT(x, x_ref, box_len, periodic) > limit:  # noqa: F821
+        if STALE(check_args):  # noqa: F821
             return s, time, True
         last = s == k - 1
         OP0(a0, time, dt, last)  # noqa: F821
@@ -189,19 +189,18 @@ class FastPath:
         """Up to ``k`` steps (see :func:`_run_steps`); the caller advances the clock."""
         pre, post, joined, ops = calls
         ops = ops + [StepCall(nothing, ())] * (SLOTS - len(ops))
-        displacement = serial(max_displacement_sq) if self._serial else max_displacement_sq
-        key = (pre.adapter, post.adapter, joined.adapter, displacement,
+        nl = sim.neighbors
+        stale = stale_kernel(nl.relative, self._serial)
+        key = (pre.adapter, post.adapter, joined.adapter, stale,
                *(op.adapter for op in ops))
         loop = self._loops.get(key)
         if loop is None:
             bindings = {"PRE": pre.adapter, "POST": post.adapter, "JOINED": joined.adapter,
-                        "DISPLACEMENT": displacement}
+                        "STALE": stale}
             bindings.update({f"OP{i}": op.adapter for i, op in enumerate(ops)})
             loop = self._loops[key] = specialize(_run_steps, "run_steps", bindings)
-        nl = sim.neighbors
-        g = sim.geometry
-        done, time, pending = loop(k, sim.clock.time, sim.clock.dt, 0.25 * nl.skin * nl.skin,
-                                   sim.state.x, nl.reference_positions, g.length, g.periodic,
+        done, time, pending = loop(k, sim.clock.time, sim.clock.dt,
+                                   nl.check_args(sim.state, sim.geometry),
                                    pre.args, post.args, joined.args,
                                    *(op.args for op in ops))
         self.steps_done += done

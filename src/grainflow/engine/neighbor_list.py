@@ -3,7 +3,10 @@
 The list holds every pair whose centre distance is below ``r_i + r_j + reach + skin``
 (``reach``: how far beyond contact the pair law acts, e.g. the cohesion shell). It is rebuilt
 when some particle has moved more than ``skin / 2`` since the last build, which guarantees
-that no interacting pair is missed in between. Every ``sort_every`` builds the particles are
+that no interacting pair is missed in between (``check = "absolute"``, the default), or, with
+``check = "relative"``, when some pair of particles may have moved ``skin`` against each
+other (:mod:`grainflow.kernels.list_check`: a stream or a jet moves as a whole, and its
+list then lasts many times longer). Every ``sort_every`` builds the particles are
 re-ordered along the cell keys (neighbours in space become neighbours in memory); the
 contact history follows through :meth:`PairInteraction.reindex`.
 """
@@ -17,9 +20,15 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from grainflow.engine.list_blocks import Blocks, index_blocks
 from grainflow.kernels import neighbors as nk
+from grainflow.kernels.list_check import stale_kernel
 from grainflow.kernels.specialize import for_threads_now
 from grainflow.state import ParticleState
+
+
+#: The list's validity checks (:mod:`grainflow.kernels.list_check`).
+CHECKS = ("absolute", "relative")
 
 
 @functools.lru_cache(maxsize=64)
@@ -104,10 +113,20 @@ class NeighborList:
     (count); see :func:`~grainflow.kernels.neighbors.transpose_index`.
     """
 
-    def __init__(self, skin: float, sort_every: int = 1) -> None:
+    def __init__(self, skin: float, sort_every: int = 1, check: str = "absolute") -> None:
         if skin <= 0:
             raise ValueError("skin: must be positive (a fraction of the diameter, e.g. 0.1 d)")
+        if check not in CHECKS:
+            raise ValueError(f"list_check: {check!r} is not one of {', '.join(CHECKS)}")
         self.skin = float(skin)
+        self.check = check
+        #: Relative check: the blocks of the last build, each particle's squared allowance
+        #: (how far it may move on its own: infinite unless a force relies on absolute
+        #: positions, see :meth:`limit_motion`) and the names of the forces that set it.
+        self.blocks = Blocks.one(0)
+        self.allowance_sq = np.zeros(0)
+        self.allowance_by: set[str] = set()
+        self._cut = 0.0
         self.sort_every = int(sort_every)
         self.builds = 0
         self.row_ptr = np.zeros(1, dtype=np.int64)
@@ -127,13 +146,36 @@ class NeighborList:
         """True if the list was built for this particle set (indices unchanged since)."""
         return state.generation == self._generation and self._x_ref.shape[0] == state.n
 
+    @property
+    def relative(self) -> bool:
+        return self.check == "relative"
+
     def needs_build(self, state: ParticleState, geom: ListGeometry) -> bool:
-        """True if indices changed or some particle moved more than skin/2."""
+        """True if indices changed or the list may miss a pair: some particle moved more
+        than skin/2 (absolute check), or some pair may have moved skin against each other
+        or some particle beyond its allowance (relative check)."""
         if not self.is_current_for(state):
             return True
-        d2 = for_threads_now(nk.max_displacement_sq)(state.x, self._x_ref, geom.length,
-                                                      geom.periodic)
-        return d2 > 0.25 * self.skin * self.skin
+        stale = stale_kernel(self.relative, numba.get_num_threads() == 1)
+        return bool(stale(self.check_args(state, geom)))
+
+    def check_args(self, state: ParticleState, geom: ListGeometry) -> tuple:
+        """The arguments of the check (:func:`~grainflow.kernels.list_check.stale_kernel`)
+        on the current positions."""
+        if not self.relative:
+            return (state.x, self._x_ref, geom.length, geom.periodic,
+                    0.25 * self.skin * self.skin)
+        b = self.blocks
+        return (state.x, self._x_ref, self.allowance_sq, *b.arrays(), self.skin * self.skin,
+                b.spread_sq)
+
+    def limit_motion(self, name: str, allowance: np.ndarray) -> None:
+        """Relative check: force ``name`` needs each particle ``i`` to rebuild before it
+        has moved ``allowance[i]`` since the build (a static wall's distance to the
+        particles it does not visit). Taken once per build and force; the tightest wins."""
+        if self.relative and name not in self.allowance_by:
+            np.minimum(self.allowance_sq, np.square(allowance), out=self.allowance_sq)
+            self.allowance_by.add(name)
 
     def wrap(self, state: ParticleState, geom: ListGeometry) -> None:
         """Fold positions on periodic axes back into the box; count the image shifts."""
@@ -150,7 +192,7 @@ class NeighborList:
         cells only, sorted and hashed. Both give the same order and the same list."""
         rmax = float(state.radius.max()) if state.n else 0.0
         margin = reach + self.skin
-        cut = 2.0 * rmax + margin
+        cut = self._cut = 2.0 * rmax + margin
         cell = np.full(3, cut)
         ncell = np.ones(3, dtype=np.int64)
         for a in range(state.dim):
@@ -242,16 +284,38 @@ class NeighborList:
         Skips the cell sort and scan, which for two free-falling grains cost 0.6 ms a step."""
         self.row_ptr = np.zeros(state.n + 1, dtype=np.int64)
         self.nbr = np.zeros(0, dtype=np.int64)
+        self._cut = 0.0
         self._adopt_rows(state, geom)
 
     def _adopt_rows(self, state: ParticleState, geom: ListGeometry) -> None:
         """Finish a build of ``row_ptr`` and ``nbr``: the displacement reference, the row
-        flags, the transpose, and the particle set the list is current for."""
+        flags, the transpose, the relative check's blocks and allowances, and the particle
+        set the list is current for."""
         self._x_ref = state.x.copy()
         self.index_rows(geom)
         self.index_columns()
+        if self.relative:
+            self.index_blocks(state.dim, geom)
+            self.allowance_sq = np.full(state.n, self._periodic_cap(geom))
+            self.allowance_by = set()
         self._generation = state.generation
         self.builds += 1
+
+    def index_blocks(self, dim: int, geom: ListGeometry) -> None:
+        """Derive the relative check's blocks from the positions of the last build."""
+        if self._cut > 0.0:
+            self.blocks = index_blocks(self._x_ref, dim, geom.lo, geom.length, geom.periodic,
+                                       self._cut, self.skin)
+        else:  # no pairs listed: only the allowances count
+            self.blocks = Blocks.one(self._x_ref.shape[0])
+
+    def _periodic_cap(self, geom: ListGeometry) -> float:
+        """The squared allowance of every particle in a box with a periodic axis: one list
+        cell (a cut-off), so that positions, folded into the box only at a build, never
+        stray far out of it; infinite otherwise."""
+        if geom.periodic.any():
+            return max(self._cut, self.skin) ** 2
+        return np.inf
 
     def index_rows(self, geom: ListGeometry) -> None:
         """Derive ``row_wraps`` from the rows and the positions of the last build."""
@@ -281,4 +345,4 @@ class NeighborList:
         return int(self.row_ptr.nbytes + self.nbr.nbytes + self.row_wraps.nbytes
                    + self.col_ptr.nbytes
                    + self.col_pair.nbytes + self.pair_col.nbytes + self.col_span.nbytes
-                   + self._x_ref.nbytes)
+                   + self._x_ref.nbytes + self.allowance_sq.nbytes + self.blocks.nbytes())

@@ -4,6 +4,7 @@ Order of work within one step of :meth:`Simulation.run` (the same for every set-
 
     1. integrator.pre_force        (VV: half kick + drift; AB2: the whole step)
     2. neighbour list: wrap periodic positions; rebuild if some particle moved > skin/2
+       (``list_check = "relative"``: if some pair may have moved skin against each other)
        (every ``sort_every`` builds also re-sort particles in space, history carried along)
     3. forces: the pair interactions over the list (the first sets force and torque; zero
        without any), then every operation in ``forces`` (walls, tethers, gravity, drag ...)
@@ -126,6 +127,11 @@ class Simulation:
         :meth:`add_interaction`.
     skin:
         Verlet skin; default 0.2 of the mean radius.
+    list_check:
+        When the list is rebuilt: ``"absolute"`` (default), once some particle has moved
+        half the skin; ``"relative"``, once some pair may have moved the skin against each
+        other (:mod:`grainflow.kernels.list_check`; for streams and jets, which move as a
+        whole). Both give bitwise the same forces at every step.
     integrator:
         Default :class:`~grainflow.engine.integrators.VelocityVerlet`.
     allow_unsafe_dt:
@@ -139,7 +145,7 @@ class Simulation:
 
     def __init__(self, state: ParticleState, dt: float, law: ContactLaw | None = None, *,
                  skin: float | None = None, integrator: Integrator | None = None,
-                 sort_every: int = 1, check_every: int = 100,
+                 sort_every: int = 1, list_check: str = "absolute", check_every: int = 100,
                  max_overlap_fraction: float = 0.5, seed: int | None = None,
                  allow_unsafe_dt: bool = False, threads: Threads = "auto") -> None:
         if not (dt > 0 and np.isfinite(dt)):
@@ -148,7 +154,7 @@ class Simulation:
         self.clock = Clock(float(dt))
         if skin is None:
             skin = 0.2 * float(np.mean(state.radius)) if state.n else 0.1
-        self.neighbors = NeighborList(skin, sort_every)
+        self.neighbors = NeighborList(skin, sort_every, list_check)
         self.geometry = ListGeometry.from_state(state)
         #: The context forces and integrators receive.
         self.context = ForceContext(state, self.geometry, self.neighbors, self.clock)
@@ -759,13 +765,35 @@ class Simulation:
             "next_id": self.state._next_id,
             "neighbors": {"row_ptr": nl.row_ptr.copy(), "nbr": nl.nbr.copy(),
                           "col_ptr": nl.col_ptr.copy(), "col_pair": nl.col_pair.copy(),
-                          "x_ref": nl._x_ref.copy(), "builds": nl.builds},
+                          "x_ref": nl._x_ref.copy(), "builds": nl.builds,
+                          "cut": nl._cut, "allowance_sq": nl.allowance_sq.copy(),
+                          "allowance_by": sorted(nl.allowance_by)},
             "interactions": {str(k): i.state_dict() for k, i in enumerate(self.interactions)},
             "forces": {str(k): f.state_dict() for k, f in enumerate(self.forces)},
             "updaters": {str(k): u.owner.state_dict() for k, u in enumerate(self.updaters)
                          if hasattr(u.owner, "state_dict")},
             "rng": self.rng.bit_generator.state,
         }
+
+    def _restore_relative_check(self, saved: dict[str, Any]) -> None:
+        """The relative check's blocks (from the build positions) and allowances. A
+        checkpoint of an absolute-check run has none: every particle is then allowed the
+        periodic cap, and the walls set theirs again from the current positions
+        (:meth:`~grainflow.walls.force.WallForce` takes the motion since the build off)."""
+        nl = self.neighbors
+        st = self.state
+        if "cut" in saved:
+            nl._cut = float(saved["cut"])
+        else:
+            rmax = float(st.radius.max()) if st.n else 0.0
+            nl._cut = 2.0 * rmax + self.reach() + nl.skin if self._lists_pairs() else 0.0
+        nl.index_blocks(st.dim, self.geometry)
+        if "allowance_sq" in saved:
+            nl.allowance_sq = np.array(saved["allowance_sq"], dtype=np.float64)
+            nl.allowance_by = set(saved["allowance_by"])
+        else:
+            nl.allowance_sq = np.full(st.n, nl._periodic_cap(self.geometry))
+            nl.allowance_by = set()
 
     def load_state_dict(self, data: dict[str, Any]) -> None:
         """Restore a :meth:`state_dict` into a simulation built with the same operations."""
@@ -789,6 +817,8 @@ class Simulation:
         nl.index_rows(self.geometry)
         nl.builds = int(nb["builds"])
         nl._generation = st.generation
+        if nl.relative:
+            self._restore_relative_check(nb)
         saved = data.get("interactions", {})
         if len(saved) != len(self.interactions):
             raise ValueError(f"checkpoint: holds {len(saved)} pair interaction(s), the "

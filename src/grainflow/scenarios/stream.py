@@ -59,6 +59,10 @@ WALL_TYPE = 1
 #: a 0.12 s run of an 8,400-grain hopper (docs/streams.md): 70.3 s (0.1 d), 60.7 s (0.25 d),
 #: 66.0 s (0.5 d, more pairs listed in the bed).
 DEFAULT_SKIN = 0.25
+#: The neighbour list's default check: the stream falls as a whole, so the list is rebuilt
+#: when its grains may have moved a skin against each other, not when one has moved half a
+#: skin (:mod:`grainflow.kernels.list_check`; measured in docs/streams.md).
+DEFAULT_LIST_CHECK = "relative"
 
 
 class StreamSection(BaseModel):
@@ -154,8 +158,8 @@ def grain_mass(section: StreamSection) -> float:
 
 def build_stream(section: StreamSection, *, seed: int = 0, dt: float | None = None,
                  dt_fraction: float = 0.02, skin: float | None = None,
-                 sort_every: int = 10, check_every: int = 100,
-                 max_overlap_fraction: float = 0.5) -> Any:
+                 sort_every: int = 10, list_check: str | None = None,
+                 check_every: int = 100, max_overlap_fraction: float = 0.5) -> Any:
     """The hopper at t = 0 (module docstring): rained-in grains over a closed lid, walls,
     the M1 + M2 law, gravity, the lid's opening, replenishment and deletion."""
     from grainflow.engine.forces import Gravity
@@ -198,8 +202,8 @@ def build_stream(section: StreamSection, *, seed: int = 0, dt: float | None = No
     if skin is None:
         skin = DEFAULT_SKIN * d
     sim = Simulation(state, step, law, skin=skin, sort_every=sort_every,
-                     check_every=check_every, max_overlap_fraction=max_overlap_fraction,
-                     seed=seed)
+                     list_check=list_check or DEFAULT_LIST_CHECK, check_every=check_every,
+                     max_overlap_fraction=max_overlap_fraction, seed=seed)
     walls = [Cylinder((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), r_h, inside=True,
                       axial_range=(0.0, math.inf)),
              PlateWithHole((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.5 * section.aperture_diameter)]
@@ -229,7 +233,8 @@ def _build(config: Any) -> Any:
         raise ValueError("stream: the [stream] section is missing")
     run = config.run
     return build_stream(section, seed=run.seed, dt=run.dt, dt_fraction=run.dt_fraction,
-                        skin=run.skin, sort_every=run.sort_every, check_every=run.check_every,
+                        skin=run.skin, sort_every=run.sort_every, list_check=run.list_check,
+                        check_every=run.check_every,
                         max_overlap_fraction=run.max_overlap_fraction)
 
 

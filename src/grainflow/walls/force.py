@@ -38,7 +38,9 @@ Static walls visit only the particles near them: at each neighbour-list build th
 within ``r_i + reach + skin`` of some wall, or holding a wall contact history, are listed, and
 the stepping loop runs over them alone. Until the next build no particle moves more than
 ``skin/2`` (the list's own rebuild rule), so no other particle can reach a wall; the results
-are bitwise those of visiting every particle. Moving walls visit every particle.
+are bitwise those of visiting every particle. Under the list's relative check, which lets
+particles move far as long as their neighbours move with them, each unvisited particle is
+given its distance to the walls as an allowance instead. Moving walls visit every particle.
 """
 
 from __future__ import annotations
@@ -330,8 +332,22 @@ class WallForce(Force):
             if st.n and self.law.history_size:
                 near |= np.any(self._history(st).reshape(st.n, -1) != 0.0, axis=1)
             self._visit = np.nonzero(near)[0].astype(np.int64)
+            if nl.relative and nl.is_current_for(st):
+                nl.limit_motion(self.name, self._allowance(gap, near, st.x, nl))
         self._visit_key = key
         return self._visit
+
+    def _allowance(self, gap: np.ndarray, near: np.ndarray, x: np.ndarray,
+                   nl: Any) -> np.ndarray:
+        """How far each particle may move since the list's build before it could reach a
+        wall without being visited (the list's relative check,
+        :meth:`~grainflow.engine.neighbor_list.NeighborList.limit_motion`): its gap beyond
+        the walls' reach less what it has moved since the build (zero right after a build;
+        not after a checkpoint's load). Visited particles are free."""
+        moved = np.linalg.norm(x - nl.reference_positions, axis=1)
+        allowance = np.maximum(gap - self.law.reach() - moved, 0.0)
+        allowance[near] = np.inf
+        return allowance
 
     def _run(self, ctx: ForceContext, time: float, update: bool, force: np.ndarray,
              torque: np.ndarray, out: np.ndarray | None) -> None:
