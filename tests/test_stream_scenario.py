@@ -127,6 +127,30 @@ def test_lid_and_replenishment():
     assert st.n > n_h + 20  # a stream exists below the aperture
 
 
+def test_refill_outpaces_a_wide_aperture_and_warns_when_it_cannot(monkeypatch):
+    """With an aperture wide for its hopper (1.9 mm in 2.4 mm) the refill still keeps N_h:
+    its grains come down at ``refill_speed``. The refill as it was (grains at rest in a slab
+    3 d deep) let this hopper drain by a third; it now says so."""
+    import grainflow.scenarios.stream as stream
+
+    def above_counts(section: StreamSection) -> list[int]:
+        sim = build_stream(section, seed=3)
+        sim.run(int(round(0.05 / sim.dt)))
+        counts = []
+        for _ in range(3):
+            sim.run(int(round(0.04 / sim.dt)))
+            counts.append(int(np.sum(sim.state.x[:, 2] > 0.0)))
+        return counts
+
+    wide = _tiny_stream(aperture_diameter="1.9 mm")
+    n_h = wide.hopper_count()
+    assert all(abs(c - n_h) <= 0.05 * n_h for c in above_counts(wide))
+    monkeypatch.setattr(stream, "REFILL_SLAB", 3.0)
+    with pytest.warns(RuntimeWarning, match="refill"):
+        counts = above_counts(_tiny_stream(aperture_diameter="1.9 mm", refill_speed="0 m/s"))
+    assert min(counts) < 0.8 * n_h
+
+
 def test_dilute_cohesionless_stream_falls_freely(tiny_stream_run):
     """Below the aperture the mean axial speed follows v(z) = sqrt(v0^2 + 2 g z), v0 measured
     in the first diameter below it; nothing is kept below stream_depth or outside

@@ -3,6 +3,7 @@ run."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -64,3 +65,25 @@ def test_crossover_brackets_per_restitution() -> None:
     regime = ["spray", "clustering", "droplets", "droplets", "clustering", "droplets",
               "clustering"]
     assert stream_study._crossovers(e, fc, regime) == {0.4: (30.0, 300.0), 0.88: (30.0, 1000.0)}
+
+
+def test_toy_model_section_fits_sigma_and_draws_it(tmp_path: Path) -> None:
+    from grainflow.analysis.stream import ApertureLength, DropletSeparation
+    from grainflow.studies.stream_study import _toy_model_section
+
+    sigma = 2.0  # N/m^2
+    forces_nN = np.array([300.0, 1000.0, 2000.0])
+    times = np.array([0.0, 1e-3, 2e-3])
+    sep = DropletSeparation(upper=0, lower=1, times=times, dz=1e-3 + 0.014 * times,
+                            velocity=0.014, velocity_err=1e-3, intercept=1e-3,
+                            n_grains_mean=80.0, t0=-0.1, dz0=3e-4, predicted_velocity=0.017)
+    lengths = {k: (ApertureLength(math.sqrt(f * 1e-9 / sigma), 2e-5, 3), [sep, sep])
+               for k, f in enumerate(forces_nN)}
+    text = "\n".join(_toy_model_section(lengths, np.full(3, 0.4), forces_nN, 200e-6,
+                                        tmp_path, {0.4: (30.0, 300.0)}))
+    assert "Sigma = 2e+03" in text and "F* = Sigma d^2 = 80 nN" in text
+    assert "30-300 nN at e = 0.4" in text and "| 0.4 | 1000 | 3 |" in text
+    assert (tmp_path / "toy_model.png").stat().st_size > 0
+    one = _toy_model_section({0: lengths[0]}, np.full(3, 0.4), forces_nN, 200e-6,
+                             tmp_path / "x", {})
+    assert any("not made" in line for line in one)

@@ -11,6 +11,7 @@ per-particle array (wall histories included) follow.
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Sequence
 
 import numpy as np
@@ -140,13 +141,16 @@ class ReplenishTo(_Inserter):
     Seed 000 keeps the hopper's fill height constant by adding grains at the top; at fixed
     grain count N_h in the hopper the fill height is constant too (PARAMETERS.md, seed 000),
     so the count is the controlled quantity. ``types`` restricts the count to some particle
-    types. Grains that do not fit in ``insert_region`` are added at a later call.
+    types. Grains that do not fit in ``insert_region`` are added at a later call; when the
+    count stays more than ``shortfall_warning`` (a fraction of ``target``) short after a call,
+    the region cannot keep up with the outflow, and a warning says so once (None: never).
     """
 
     def __init__(self, count_region: Region, target: int, insert_region: Region,
                  sizes: SizeDistribution, *, density: float,
                  velocity: Sequence[float] | None = None, type: int = 0,
-                 types: Sequence[int] | None = None, max_attempts: int = 200) -> None:
+                 types: Sequence[int] | None = None, max_attempts: int = 200,
+                 shortfall_warning: float | None = None) -> None:
         super().__init__(insert_region, sizes, density, velocity, type, max_attempts)
         if count_region.dim != insert_region.dim:
             raise ValueError("insert_region: its dimension differs from count_region's")
@@ -156,6 +160,8 @@ class ReplenishTo(_Inserter):
         self.target = int(target)
         self.types = None if types is None else list(types)
         self.inserted = 0
+        self.shortfall_warning = shortfall_warning
+        self._warned = False
 
     def count(self, ctx: UpdateContext) -> int:
         """Grains now in ``count_region``."""
@@ -165,7 +171,17 @@ class ReplenishTo(_Inserter):
     def update(self, ctx: UpdateContext) -> None:
         missing = self.target - self.count(ctx)
         if missing > 0:
-            self.inserted += self._insert(ctx, missing)
+            added = self._insert(ctx, missing)
+            self.inserted += added
+            short = missing - added
+            if (self.shortfall_warning is not None and not self._warned
+                    and short > self.shortfall_warning * self.target):
+                self._warned = True
+                warnings.warn(
+                    f"refill: {short} of the {self.target} grains kept in the count region are "
+                    "missing and do not fit in the insertion region; it empties too slowly for "
+                    "the outflow (give the added grains a downward velocity or a larger "
+                    "region)", RuntimeWarning, stacklevel=2)
 
     def state_dict(self) -> dict[str, Any]:
         return {"inserted": self.inserted}

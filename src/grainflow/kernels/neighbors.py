@@ -666,8 +666,9 @@ def rows_crossing_periodic(row_ptr, nbr, x, box_len, periodic):
     image), else 0.
 
     Valid until the next build: positions are folded into the box only at a build, and
-    between two builds no particle moves more than half the skin, so a pair's raw
-    difference stays near 0 (a pair inside the box) or near ``L`` (across it)."""
+    between two builds no listed pair moves more than the skin against each other (under
+    either check, :mod:`grainflow.kernels.list_check`), so a pair's raw difference stays
+    near 0 (a pair inside the box) or near ``L`` (across it)."""
     n = row_ptr.shape[0] - 1
     out = np.zeros(n, dtype=np.uint8)
     for i in prange(n):

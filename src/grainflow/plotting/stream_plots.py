@@ -16,18 +16,19 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from matplotlib.ticker import FuncFormatter, NullFormatter
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 from numpy.typing import ArrayLike
 
 from grainflow.analysis.stream import (REGIMES, AspectHistogram, ContactProfiles, DepthProfile,
                                        DeviationProfiles, DropletSeparation, FreeFallFit,
-                                       NormalisedProfile, ProfileValue)
+                                       NormalisedProfile, ProfileValue, ToyModelFit)
 from grainflow.frame import Frame
 from grainflow.plotting.figures import new_figure, save_figure
 
 __all__ = ["plot_contact_number", "plot_network_size", "plot_velocity_deviations",
            "plot_aspect_histogram", "plot_droplet_separations", "plot_phase_diagram",
-           "plot_stream_side", "write_stream_movie", "plot_contact_vs_capture"]
+           "plot_stream_side", "write_stream_movie", "plot_contact_vs_capture",
+           "plot_toy_model"]
 
 _CM = 100.0
 #: Marker of each regime in the phase diagram (anything else: "x").
@@ -391,5 +392,40 @@ def plot_contact_vs_capture(capture_velocity: ArrayLike, mean_contact_number: Ar
                    <= 2 * vc.max() * 1e3])
     ax.set_xlabel(r"capture velocity $v_c$ [mm/s]")
     ax.set_ylabel(r"$\langle Z\rangle$")
+    ax.legend(fontsize=7, frameon=False)
+    return save_figure(fig, path)
+
+
+def plot_toy_model(cohesive_force: ArrayLike, length: ArrayLike, length_err: ArrayLike,
+                   restitution: ArrayLike, path: str | Path,
+                   fit: ToyModelFit | None = None) -> Path:
+    """The droplet length scale at the aperture L0 against F_c, one series per restitution,
+    with the toy model's L0 = (F_c / Sigma)^(1/2) and the grain size (seed Fig. 5)."""
+    f = np.asarray(cohesive_force, dtype=float)
+    lengths = np.asarray(length, dtype=float)
+    errs = np.asarray(length_err, dtype=float)
+    e = np.asarray(restitution, dtype=float)
+    if not (f.ndim == 1 and f.shape == lengths.shape == errs.shape == e.shape):
+        raise ValueError("cohesive_force, length, length_err, restitution: expected 1-D "
+                         "arrays of one length")
+    fig = new_figure(1)
+    ax = fig.subplots()
+    for value in sorted(set(e.tolist()), reverse=True):
+        sel = e == value
+        ax.errorbar(f[sel] * 1e9, lengths[sel] * 1e3, yerr=np.nan_to_num(errs[sel]) * 1e3,
+                    fmt="o", ms=4, capsize=2, label=f"e = {value:g}")
+    if fit is not None:
+        line = np.geomspace(0.5 * f.min(), 2.0 * f.max(), 50) if f.size else np.array([])
+        ax.plot(line * 1e9, fit.length(line) * 1e3, "k-", lw=1,
+                label=rf"$(F_c/\Sigma)^{{1/2}}$, $\Sigma$ = {fit.sigma * 1e3:.3g} nN/mm$^2$")
+        ax.axhline(fit.grain_diameter * 1e3, color="0.6", ls=":", lw=1, label="$d$")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        axis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel(r"$F_c$ [nN]")
+    ax.set_ylabel(r"$L_0$ at the aperture [mm]")
     ax.legend(fontsize=7, frameon=False)
     return save_figure(fig, path)

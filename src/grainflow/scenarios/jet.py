@@ -211,7 +211,7 @@ def target_sites(section: JetSection, dim: int) -> np.ndarray:
 
 def build_jet(section: JetSection, dim: int, *, seed: int = 0, dt: float | None = None,
               dt_fraction: float = 0.02, skin: float | None = None, integrator: str = "adams_bashforth2",
-              sort_every: int = 10, check_every: int = 100,
+              sort_every: int = 10, list_check: str | None = None, check_every: int = 100,
               max_overlap_fraction: float = 0.5) -> "Any":
     """The jet at t = 0 (module docstring): lattice jet, tethered target, M1 law, AB2."""
     from grainflow.engine.integrators import integrator_by_name
@@ -256,8 +256,9 @@ def build_jet(section: JetSection, dim: int, *, seed: int = 0, dt: float | None 
                 damping="absolute")
     step = dt if dt is not None else dt_fraction * section.contact_time
     sim = Simulation(state, step, law, skin=skin, integrator=integrator_by_name(integrator),
-                     sort_every=sort_every, check_every=check_every,
-                     max_overlap_fraction=max_overlap_fraction, seed=seed)
+                     sort_every=sort_every, list_check=list_check or "absolute",
+                     check_every=check_every, max_overlap_fraction=max_overlap_fraction,
+                     seed=seed)
     ids = state.id[wall_idx]
     sim.add_force(Tethers(ids, section.k_w, section.eta_w_factor * eta_n,
                           bonds=neighbor_bonds(state, ids, 1.05 * section.target_spacing)))
@@ -281,7 +282,7 @@ def _build(config: Any, dim: int) -> Any:
     return build_jet(section, dim, seed=run.seed, dt=run.dt, dt_fraction=run.dt_fraction,
                      skin=run.skin,
                      integrator=run.integrator, sort_every=run.sort_every,
-                     check_every=run.check_every,
+                     list_check=run.list_check, check_every=run.check_every,
                      max_overlap_fraction=run.max_overlap_fraction)
 
 

@@ -16,8 +16,9 @@ without overlap (random sequential addition) at a loose packing fraction
 ``rain_fraction`` in the hopper, with zero velocity, and fall onto the closed base (a lid in
 the plane z = 0); the lid is removed at ``open_time``. From then on the hopper is replenished
 at the top (:class:`~grainflow.insertion.ReplenishTo`): whenever fewer than ``n_hopper``
-grains lie above the aperture plane, the missing ones are added at random in a slab above
-the bed, so the fill height stays constant on average (the seed keeps N_h, hence H,
+grains lie above the aperture plane, the missing ones are added at random in a slab
+``REFILL_SLAB`` diameters deep above the bed, moving down at ``refill_speed``, so the fill
+height stays constant on average (the seed keeps N_h, hence H,
 constant). Grains deeper than ``stream_depth`` below the aperture, or farther than
 ``stream_radius`` from its axis, are deleted. The neighbour
 search uses hashed cells, so the mostly empty 20 cm below the aperture costs nothing.
@@ -63,6 +64,11 @@ DEFAULT_SKIN = 0.25
 #: when its grains may have moved a skin against each other, not when one has moved half a
 #: skin (:mod:`grainflow.kernels.list_check`; measured in docs/streams.md).
 DEFAULT_LIST_CHECK = "relative"
+#: Depth of the slab the refill places grains in, in grain diameters (from 2 d above the
+#: bed). The refill can add grains only as fast as the slab empties: at rest and 3 d deep it
+#: passed about 60 grains/ms in the 5 mm hopper, less than the 3 mm aperture's 95, and the
+#: hopper drained to half its N_h in 0.25 s (measured 2026-12-05; docs/streams.md).
+REFILL_SLAB = 6.0
 
 
 class StreamSection(BaseModel):
@@ -108,6 +114,9 @@ class StreamSection(BaseModel):
         0.02, description="grains below the aperture farther than this from its axis are "
         "deleted (grains flung out of the stream; 7.6 cm/s sideways at e = 0.40 was seen)")
     replenish_every: StrictInt = Field(100, ge=1, description="steps between refills")
+    refill_speed: quantity("velocity", ge=0) = Field(
+        0.25, description="downward speed of the grains added above the bed: the refill "
+        "must outpace the outflow (a warning says when it does not)")
     delete_every: StrictInt = Field(100, ge=1, description="steps between deletions")
 
     @model_validator(mode="after")
@@ -216,8 +225,11 @@ def build_stream(section: StreamSection, *, seed: int = 0, dt: float | None = No
                         max(1, math.ceil(section.open_time / sim.dt)))
     bed = n * section.grain_volume / (0.6 * area)
     above = CylinderRegion((0.0, 0.0), r_h, lo=0.0, hi=math.inf)
-    slab = CylinderRegion((0.0, 0.0), r_h - r, lo=bed + 2.0 * d, hi=bed + 5.0 * d)
-    sim.add_updater(ReplenishTo(above, n, slab, sizes, density=section.density, type=0),
+    slab = CylinderRegion((0.0, 0.0), r_h - r, lo=bed + 2.0 * d,
+                          hi=bed + (2.0 + REFILL_SLAB) * d)
+    sim.add_updater(ReplenishTo(above, n, slab, sizes, density=section.density,
+                                velocity=(0.0, 0.0, -section.refill_speed), type=0,
+                                shortfall_warning=0.05),
                     section.replenish_every)
     sim.add_updater(DeleteRegion(CylinderRegion((0.0, 0.0), r_s, lo=-section.stream_depth,
                                                 hi=math.inf), outside=True),

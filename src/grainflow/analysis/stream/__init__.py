@@ -18,6 +18,8 @@ hopper); grains are monodisperse spheres of type 0; walls are analytic (no wall 
   principal-axis length, width and aspect ratio, the seed's selection, the aspect-ratio
   histogram, tracking by shared ids, separation velocities of adjacent droplets and the
   free-fall prediction sqrt(v0^2 + 2 g dz0) - v0.
+* :mod:`~grainflow.analysis.stream.toy_model` (seed 000, Sec. IV): the droplet length scale
+  at the aperture, L0, from the tracked separations, and the fit L0 = (F_c / Sigma)^(1/2).
 * :mod:`~grainflow.analysis.stream.regimes` (A7): spray / clustering / droplets / dripping from
   the network-size profile, droplet presence and the outflow steadiness.
 
@@ -55,6 +57,8 @@ from grainflow.analysis.stream.networks import (SEED_CONTACT_BIN, SEED_NETWORK_B
 from grainflow.analysis.stream.regimes import (REGIMES, OutflowSteadiness, RegimeDecision,
                                                RegimeThresholds, classify_regime,
                                                outflow_steadiness)
+from grainflow.analysis.stream.toy_model import (ApertureLength, ToyModelFit, aperture_length,
+                                                 fit_toy_model, gradient_kinetic_energy)
 
 __all__ = [
     # common
@@ -77,6 +81,9 @@ __all__ = [
     "select_droplets", "AspectHistogram", "aspect_ratio_histogram", "DropletTrack",
     "track_droplets", "DropletSeparation", "droplet_separations",
     "free_fall_separation_velocity",
+    # toy model
+    "ApertureLength", "aperture_length", "ToyModelFit", "fit_toy_model",
+    "gradient_kinetic_energy",
     # A7 regimes
     "REGIMES", "RegimeThresholds", "RegimeDecision", "classify_regime",
     "OutflowSteadiness", "outflow_steadiness",
