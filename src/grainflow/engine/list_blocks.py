@@ -42,7 +42,8 @@ class Blocks:
     def one(cls, n: int) -> "Blocks":
         """Every particle in one block with no pair conditions: only the allowances count
         (a list of no pairs, :meth:`NeighborList.build_empty`)."""
-        return cls.of(np.arange(n, dtype=np.int64), np.array([0, n], dtype=np.int64),
+        return cls.of(np.arange(n, dtype=np.int64),
+                      np.array([0, n] if n else [0], dtype=np.int64),
                       np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.inf)
 
     @classmethod

@@ -183,6 +183,12 @@ class NeighborList:
             for_threads_now(nk.wrap_periodic)(state.x, state.image, geom.lo, geom.length,
                                               geom.periodic)
 
+    def cut_for(self, state: ParticleState, reach: float) -> float:
+        """The list's cut-off, ``2 r_max + reach + skin``: the cell side and the unit of
+        the relative check's blocks."""
+        rmax = float(state.radius.max()) if state.n else 0.0
+        return 2.0 * rmax + reach + self.skin
+
     def cell_order(self, state: ParticleState, geom: ListGeometry, reach: float) -> Cells:
         """Cell coordinates, linear keys and the key-sorted particle order (:class:`Cells`).
 
@@ -190,9 +196,8 @@ class NeighborList:
         cells per particle (a packing, a flowing pile) is sorted by counting and stored
         densely with ghost cells; a sparse one (a dilute stream, a jet) keeps its occupied
         cells only, sorted and hashed. Both give the same order and the same list."""
-        rmax = float(state.radius.max()) if state.n else 0.0
         margin = reach + self.skin
-        cut = self._cut = 2.0 * rmax + margin
+        cut = self._cut = self.cut_for(state, reach)
         cell = np.full(3, cut)
         ncell = np.ones(3, dtype=np.int64)
         for a in range(state.dim):

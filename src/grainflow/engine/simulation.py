@@ -785,8 +785,7 @@ class Simulation:
         if "cut" in saved:
             nl._cut = float(saved["cut"])
         else:
-            rmax = float(st.radius.max()) if st.n else 0.0
-            nl._cut = 2.0 * rmax + self.reach() + nl.skin if self._lists_pairs() else 0.0
+            nl._cut = nl.cut_for(st, self.reach()) if self._lists_pairs() else 0.0
         nl.index_blocks(st.dim, self.geometry)
         if "allowance_sq" in saved:
             nl.allowance_sq = np.array(saved["allowance_sq"], dtype=np.float64)
