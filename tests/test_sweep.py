@@ -457,3 +457,57 @@ def test_example_sweep_file_is_valid(tmp_path):
         data["base"] = {"run": {"seed": 0}, "geometry": {"orifice_width": 4.0}}
     spec = parse_sweep(data, source=example)
     assert len(spec.points()) == 6 and spec.runner == "grainflow.runner:run_config"
+
+
+SCRIPT_IMPORTING_NUMBA = '''
+import os, sys
+import numba  # at the top, as a user's script does: spawned workers import it again
+import numpy as np
+from pathlib import Path
+from grainflow.sweep import parse_sweep, run_sweep
+
+
+@numba.njit(parallel=True)
+def total(x):
+    s = 0.0
+    for i in numba.prange(x.size):
+        s += x[i]
+    return s
+
+
+def main():
+    before = os.environ.get("NUMBA_NUM_THREADS")
+    total(np.ones(10))  # this process's thread pool runs before the sweep
+    spec = parse_sweep({"name": "s", "mode": "grid", "base": {
+        "scenario": "jet2d", "dim": 2, "run": {"duration": 0.5, "seed": 0},
+        "output": {"frames_every": 0, "checkpoint_every": 0},
+        "jet": {"jet_diameter": 4.0, "target_diameter": 8.0, "n": 60, "phi_tilde": 0.9}},
+        "overrides": {"jet.phi_tilde": [0.5, 0.9]}})
+    result = run_sweep(spec, Path(sys.argv[1]), n_workers=2, progress="none")
+    numba.njit(lambda x: x + 1)(1)  # and compiles after it
+    print("done", result.counts["done"], "environment kept",
+          os.environ.get("NUMBA_NUM_THREADS") == before)
+
+
+if __name__ == "__main__":
+    main()
+'''
+
+
+def test_sweep_from_a_script_that_imports_numba_at_the_top(tmp_path):
+    """A script importing numba at the top runs its sweep on a local cluster: the workers'
+    one-thread environment is set before they are spawned (they import the script again
+    first; set after, numba refused every compilation and every point failed), and the
+    script's own environment and numba are as before once the sweep ends."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "script.py"
+    script.write_text(SCRIPT_IMPORTING_NUMBA)
+    src = Path(__file__).resolve().parents[1] / "src"
+    env = {**os.environ, "PYTHONPATH": str(src), "PYTHONWARNINGS": "ignore"}
+    env.pop("NUMBA_NUM_THREADS", None)
+    out = subprocess.run([sys.executable, str(script), str(tmp_path / "sweep")], env=env,
+                         capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "done 2 environment kept True" in out.stdout, out.stdout[-3000:]

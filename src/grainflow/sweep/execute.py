@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import dask
 import tomli_w
 from distributed import Client, Future, LocalCluster, as_completed, get_worker
 from rich.console import Console
@@ -64,7 +65,8 @@ from grainflow.sweep.spec import (
     validate_point_configs,
 )
 
-#: Environment of LocalCluster workers: one compute thread each.
+#: Environment of LocalCluster workers: one compute thread each (set before each worker
+#: process is spawned: :func:`worker_environment`).
 WORKER_ENV = {
     "NUMBA_NUM_THREADS": "1",
     "OMP_NUM_THREADS": "1",
@@ -409,6 +411,32 @@ def _tasks(spec: SweepSpec, points: list[Point], sweepdir: Path) -> list[PointTa
 
 
 @contextmanager
+def worker_environment() -> Iterator[None]:
+    """:data:`WORKER_ENV` in the environment each local worker process is spawned with.
+
+    A LocalCluster's ``env`` reaches a worker only after the new process has imported the
+    caller's main module (multiprocessing's spawn imports it again). A script that imports
+    numba (or grainflow) at the top has then sized numba's thread pool from the machine, and
+    the later ``NUMBA_NUM_THREADS = 1`` makes numba refuse every compilation in that worker
+    ("Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
+    launched"): every point failed. dask's pre-spawn environment is put into this process's
+    environment before each spawn (a restarted worker's too); this process's own values come
+    back when the block ends."""
+    saved = {key: os.environ.get(key) for key in WORKER_ENV}
+    pre_spawn = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}),
+                 **WORKER_ENV}
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": pre_spawn}):
+            yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+@contextmanager
 def open_client(
     scheduler: str | None, n_workers: int | None, console: Console
 ) -> Iterator[Client]:
@@ -423,7 +451,7 @@ def open_client(
             yield client
         return
     n_workers = n_workers or os.cpu_count() or 1
-    with LocalCluster(
+    with worker_environment(), LocalCluster(
         n_workers=n_workers,
         threads_per_worker=1,
         processes=True,
