@@ -404,10 +404,15 @@ def test_authors_study_plan_builds_valid_sweeps() -> None:
                     assert hopper["mu_limit"] == pytest.approx(MU_INCLINED)
                 if name in PROBES:
                     assert hopper["lam"] == 0.0
-                if name == REPLICAS:  # the q2d limits again, with other seeds
-                    assert hopper["lam"] in (0.0, math.inf)
+                if name == REPLICAS:  # the q2d lambda sweep again, with other seeds
+                    assert hopper["lam"] in plan.lambdas_2d
+                    assert hopper["orifice_width"] in (plan.replicate_widths or plan.widths_2d)
                     assert config["run"]["seed"] in plan.replicate_seeds
                     assert config["run"]["seed"] != 0
+        if plan.replicate_seeds:
+            lams = {p.config(specs[REPLICAS].base)["hopper"]["lam"]
+                    for p in specs[REPLICAS].points()}
+            assert lams == set(plan.lambdas_2d)
     widths = [3.0, 4.6, 6.2, 7.8, 9.4]
     q = [0.5 * (w - 1.0) ** 1.8 for w in widths]
     series = Series(w=widths, Q=q, Q_err=[0.01 * x for x in q])
@@ -549,6 +554,44 @@ def test_replicate_table_gives_each_seed_and_the_spread() -> None:
     for seed, beta in ((0, "1.8"), (1, "1.6"), (2, "1.7")):
         assert f"| 0 | {seed} | {beta} ± " in text
     assert "| 0 | mean ± s.d. (3) | 1.7 ± 0.1 |" in text
+
+
+def test_realizations_give_lambda_c_each_and_pooled() -> None:
+    """lambda_c of each realization and pooled: two realizations whose betas follow eq. (14)
+    with lambda_c = 0.1 and 0.2 give those back, the pooled fit lies between them with an
+    error that holds their spread, and the report's table and seed row carry them."""
+    from grainflow.analysis.hopper import beta_sigmoid
+    from grainflow.studies.hopper_authors import (AUTHORS_REDUCED, POOLED, Series,
+                                                  _realization_table, _seed_table,
+                                                  replicate_sigmoids, three_fits)
+
+    widths = [3.0, 4.6, 6.2, 7.8, 9.4, 10.6]
+    lams = [0.0, 0.005, 0.02, 0.05, 0.181, 1.0, math.inf]
+
+    def series(beta: float) -> Series:
+        q = [0.5 * (w - 1.0) ** beta for w in widths]
+        return Series(w=widths, Q=q, Q_err=[0.01 * x for x in q])
+
+    def beta(lam: float, lambda_c: float) -> float:
+        if lam in (0.0, math.inf):  # the limits d - 1/2 and d - 3/2
+            return 1.5 if lam == 0.0 else 0.5
+        return float(beta_sigmoid(np.array([lam]), lambda_c, 0.8, 2)[0])
+
+    fits = {"q2d": {(lam, None, None): three_fits(series(beta(lam, 0.1)), 2, lam)
+                    for lam in lams}}
+    replicas = {(lam, 1.0): series(beta(lam, 0.2)) for lam in lams}
+    replicates = replicate_sigmoids(fits, replicas)
+    assert replicates[0]["free"].lambda_c == pytest.approx(0.1, rel=0.02)
+    assert replicates[1]["free"].lambda_c == pytest.approx(0.2, rel=0.02)
+    pooled = replicates[POOLED]["free"]
+    assert 0.1 < pooled.lambda_c < 0.2
+    assert pooled.lambda_c_err > 0.1 * pooled.lambda_c  # the spread, not the fits' 1 %
+    table = "\n".join(_realization_table(fits, replicas, replicates))
+    assert "| λ | seed 0 | seed 1 | mean ± s.d. |" in table
+    assert "| λ_c (free betas) | 0.1 ± " in table
+    seed_rows = "\n".join(_seed_table(AUTHORS_REDUCED, fits, {"q2d": {}, "q3d": {}, **{
+        t: {} for t in AUTHORS_REDUCED.theta_w}}, replicates))
+    assert "| 2D λ_c, 2 realizations pooled (free betas) | 0.05 | " in seed_rows
 
 
 def test_height_table_gives_the_ratio_at_each_common_width() -> None:

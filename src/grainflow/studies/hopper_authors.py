@@ -57,8 +57,11 @@ class AuthorsPlan:
     lambdas_theta: tuple[float, ...]
     widths_probe: tuple[float, ...]
     probes: tuple[str, ...]
-    #: Seeds (besides q2d's 0) of replicate 2D series at the two limits, over widths_2d.
+    #: Seeds (besides q2d's 0) of replicate 2D lambda sweeps (every lambda of lambdas_2d):
+    #: the spread of beta between realizations, and so of lambda_c, which no fit's error holds.
     replicate_seeds: tuple[int, ...] = ()
+    #: Widths of the replicate sweeps (None: widths_2d).
+    replicate_widths: tuple[float, ...] | None = None
     reductions: tuple[str, ...] = field(default=())
 
 
@@ -75,7 +78,7 @@ AUTHORS_FULL = AuthorsPlan(
     widths_probe=(3.0, 4.6, 6.2, 7.8, 9.4, 10.6),
     probes=("friction_dt", "friction_E1000", "friction_full", "friction_constant",
             "friction_sequential", "friction_n3200", "friction3d_mu10", "friction3d_stiff"),
-    replicate_seeds=(1, 2, 3))
+    replicate_seeds=(1, 2, 3), replicate_widths=AUTHORS_WIDTHS[::2])
 AUTHORS_REDUCED = AuthorsPlan(
     widths_2d=(3.0, 4.6, 6.2, 7.8, 9.4, 10.6),
     lambdas_2d=(0.0, 5e-3, 0.02, 0.05, LAMBDA_SWITCH, 1.0, math.inf),
@@ -95,7 +98,8 @@ AUTHORS_REDUCED = AuthorsPlan(
                 "two friction-limit probes (the sequential start, N = 3200); full: also the "
                 "authors' dt, E_sp = 1000, full friction, constant stiffness, and 3D at a "
                 "tenth of mu and with the 3D branch's stiffness",
-                "one replicate (seed 1) of the two 2D limits (full: three)"))
+                "one replicate (seed 1) of the 2D lambda sweep (full: three, over 10 "
+                "widths)"))
 
 #: E_sp of the authors' 3D branch (spK = 100), converted as its masses (pi r^2) and the 2D
 #: code's g = 0.05 give (hopper_units.AUTHORS_3D_UNITS): 926.
@@ -201,14 +205,15 @@ def sweep_specs(plan: AuthorsPlan) -> dict[str, Any]:
         raw["theta2d"]["base"]["hopper"]["theta_w"] = plan.theta_w[0]
     if plan.replicate_seeds:
         raw[REPLICAS] = {"base": _base(2, plan, plan.duration_2d), "overrides": {
-            "hopper.orifice_width": list(plan.widths_2d), "hopper.lam": [0.0, math.inf]},
+            "hopper.orifice_width": list(plan.replicate_widths or plan.widths_2d),
+            "hopper.lam": list(plan.lambdas_2d)},
             "seeds": list(plan.replicate_seeds)}
     analyses = ["grainflow.studies.hopper_results:flow_summary"]
     return {name: parse_sweep({"name": name, "mode": "grid", "analyses": analyses, **spec})
             for name, spec in raw.items()}
 
 
-#: Sweep name of the replicate 2D limits (other seeds than q2d's).
+#: Sweep name of the replicate 2D lambda sweeps (other seeds than q2d's).
 REPLICAS = "replicas2d"
 
 
@@ -244,19 +249,24 @@ def three_fits(series: Series, dim: int, lam: float) -> dict[str, Any]:
     return out
 
 
-def _sigmoids(fits: dict[float, dict[str, Any]], dim: int) -> dict[str, Any]:
-    """lambda_c from the free betas and from the bounded betas (never rescaled)."""
+def _sigmoids(fits: list[tuple[float, dict[str, Any]]], dim: int, *,
+              weighted: bool = True) -> dict[str, Any]:
+    """lambda_c from the free betas and from the bounded betas (never rescaled), over
+    (lambda, three fits) pairs; a lambda may appear once per realization. ``weighted``: each
+    beta weighs by its fit's error (at least 0.02); otherwise all weigh alike and the
+    covariance is scaled by the scatter about the sigmoid, which then holds the spread
+    between realizations."""
     from grainflow.analysis.hopper import fit_beta_sigmoid
 
     out = {}
     for kind in ("free", "bounded"):
-        pts = [(lam, f[kind]) for lam, f in sorted(fits.items())
+        pts = [(lam, f[kind]) for lam, f in sorted(fits, key=lambda item: item[0])
                if 0 < lam < math.inf and kind in f]
         if len(pts) >= 3:
             try:
                 out[kind] = fit_beta_sigmoid(
                     [lam for lam, _ in pts], [f.beta for _, f in pts], dim=dim,
-                    beta_err=[max(f.beta_err, 0.02) for _, f in pts])
+                    beta_err=[max(f.beta_err, 0.02) for _, f in pts] if weighted else None)
             except (ValueError, RuntimeError):
                 pass
     return out
@@ -294,17 +304,36 @@ def _seed_c(c: float) -> str:
 def _sigmoid_fits(plan: AuthorsPlan, fits: dict) -> dict[Any, dict[str, Any]]:
     """beta(lambda) sigmoids: ``"q2d"``, ``"q3d"`` and each theta_w of the inclined hoppers."""
     out: dict[Any, dict[str, Any]] = {
-        name: _sigmoids({key[0]: f for key, f in fits.get(name, {}).items()}, dim)
+        name: _sigmoids([(key[0], f) for key, f in fits.get(name, {}).items()], dim)
         for name, dim in (("q2d", 2), ("q3d", 3))}
     for theta in plan.theta_w:
-        out[theta] = _sigmoids({key[0]: f for key, f in fits.get("theta2d", {}).items()
-                                if key[2] == theta}, 2)
+        out[theta] = _sigmoids([(key[0], f) for key, f in fits.get("theta2d", {}).items()
+                                if key[2] == theta], 2)
+    return out
+
+
+#: Key of the pooled realizations in :func:`replicate_sigmoids`.
+POOLED = "pooled"
+
+
+def replicate_sigmoids(fits: dict, replicas: dict[tuple, Series]) -> dict[Any, dict[str, Any]]:
+    """2D lambda_c of each realization (seed -> sigmoids; q2d is seed 0) and of all of them
+    pooled (:data:`POOLED`: one unweighted fit to every realization's betas, its error from
+    their scatter about the sigmoid, so it holds the spread between realizations)."""
+    by_seed: dict[int, list[tuple[float, dict[str, Any]]]] = {
+        0: [(key[0], f) for key, f in fits.get("q2d", {}).items()]}
+    for (lam, seed), ser in sorted(replicas.items()):
+        by_seed.setdefault(int(seed), []).append((lam, three_fits(ser, 2, lam)))
+    out: dict[Any, dict[str, Any]] = {seed: _sigmoids(pts, 2) for seed, pts in by_seed.items()}
+    out[POOLED] = _sigmoids([pt for pts in by_seed.values() for pt in pts], 2, weighted=False)
     return out
 
 
 def _figures(out: Path, fits: dict, results: dict, dims: dict[str, int],
-             sigmoids: dict[Any, dict[str, Any]]) -> list[str]:
-    """Q(w) with the free fits per sweep, two snapshots and beta(lambda)."""
+             sigmoids: dict[Any, dict[str, Any]],
+             replicates: dict[Any, dict[str, Any]]) -> list[str]:
+    """Q(w) with the free fits per sweep, two snapshots, beta(lambda) and, with replicate
+    realizations, beta(lambda) of each and pooled."""
     from grainflow.plotting.hopper_plots import plot_beta_sigmoid, plot_beverloo
 
     lines = []
@@ -328,11 +357,18 @@ def _figures(out: Path, fits: dict, results: dict, dims: dict[str, int],
     if "free" in sigmoids["q2d"]:
         plot_beta_sigmoid(sigmoids["q2d"]["free"], out / "beta_lambda.png")
         lines.append("![beta(lambda), free fits](beta_lambda.png)")
+    chosen = [(key, s["free"]) for key, s in replicates.items() if "free" in s]
+    if len(chosen) > 2:  # seed 0, another seed and the pooled fit
+        plot_beta_sigmoid([f for _, f in chosen], out / "beta_lambda_realizations.png",
+                          labels=[str(key) if key == POOLED else f"seed {key}"
+                                  for key, _ in chosen])
+        lines.append("![beta(lambda) of each realization, free fits]"
+                     "(beta_lambda_realizations.png)")
     return lines
 
 
-def _seed_table(plan: AuthorsPlan, fits: dict,
-                sigmoids: dict[Any, dict[str, Any]]) -> list[str]:
+def _seed_table(plan: AuthorsPlan, fits: dict, sigmoids: dict[Any, dict[str, Any]],
+                replicates: dict[Any, dict[str, Any]]) -> list[str]:
     """Every seed number with the free, fixed-beta and bounded fits side by side."""
     lines = ["", "## Seed numbers, three fits side by side", "",
              "| quantity | seed | free | beta fixed | bounded (paper) |", "|---|---|---|---|---|"]
@@ -360,6 +396,12 @@ def _seed_table(plan: AuthorsPlan, fits: dict,
             s = sigmoids[name].get(kind)
             lines.append(f"| {dim}D λ_c from the {kind} betas | {seed} | "
                          f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
+        if dim == 2 and len(replicates) > 2:
+            for kind in ("free", "bounded"):
+                s = replicates[POOLED].get(kind)
+                lines.append(f"| 2D λ_c, {len(replicates) - 1} realizations pooled ({kind} "
+                             f"betas) | {seed} | "
+                             f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
     for theta in plan.theta_w:
         for kind in ("free", "bounded"):
             s = sigmoids[theta].get(kind)
@@ -456,6 +498,43 @@ def _replicate_table(fits: dict, replicas: dict[tuple, Series]) -> list[str]:
     return lines
 
 
+def _realization_table(fits: dict, replicas: dict[tuple, Series],
+                       replicates: dict[Any, dict[str, Any]]) -> list[str]:
+    """The free beta at every lambda for every realization with their mean and sample
+    standard deviation, then lambda_c of each realization and of all pooled."""
+    betas: dict[float, dict[int, Any]] = {}
+    for key, f in fits.get("q2d", {}).items():
+        betas.setdefault(key[0], {})[0] = f.get("free")
+    for (lam, seed), ser in replicas.items():
+        betas.setdefault(lam, {})[int(seed)] = three_fits(ser, 2, lam).get("free")
+    seeds = sorted({seed for row in betas.values() for seed in row})
+    lines = ["", "## beta(lambda) and lambda_c of each 2D realization (free fits)", "",
+             "| λ | " + " | ".join(f"seed {s}" for s in seeds) + " | mean ± s.d. |",
+             "|---|" + "---|" * (len(seeds) + 1)]
+    for lam in sorted(betas):
+        row = [betas[lam].get(s) for s in seeds]
+        values = [f.beta for f in row if f is not None]
+        spread = (fmt(float(np.mean(values)), float(np.std(values, ddof=1)))
+                  if len(values) >= 2 else "")
+        lines.append(f"| {lam:g} | " + " | ".join(fit_cell(f, "beta") for f in row)
+                     + f" | {spread} |")
+    for kind in ("free", "bounded"):
+        cells = []
+        for s in seeds:
+            fit = replicates.get(s, {}).get(kind)
+            cells.append(fmt(fit.lambda_c, fit.lambda_c_err) if fit else "not fit")
+        per_seed = [replicates[s][kind].lambda_c for s in seeds if kind in replicates.get(s, {})]
+        spread = (fmt(float(np.mean(per_seed)), float(np.std(per_seed, ddof=1)))
+                  if len(per_seed) >= 2 else "")
+        lines.append(f"| λ_c ({kind} betas) | " + " | ".join(cells) + f" | {spread} |")
+    pooled = replicates.get(POOLED, {})
+    lines += ["", "Pooled (one unweighted sigmoid through every realization's betas, its error "
+              "from their scatter): " + "; ".join(
+                  f"λ_c = {fmt(pooled[k].lambda_c, pooled[k].lambda_c_err)} ({k} betas)"
+                  for k in ("free", "bounded") if k in pooled) + "."]
+    return lines
+
+
 def _key_cells(key: tuple) -> str:
     return " | ".join("" if v is None else f"{v:g}" for v in key)
 
@@ -522,14 +601,17 @@ def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
         lines += ["Reductions relative to the full study:", ""]
         lines += [f"- {r}" for r in plan.reductions] + [""]
     sigmoids = _sigmoid_fits(plan, fits)
-    lines += _figures(out, fits, results, dims, sigmoids)
-    lines += _seed_table(plan, fits, sigmoids)
+    replicas = (collect_series(out / REPLICAS, ("hopper.lam", "run.seed"))
+                if plan.replicate_seeds else {})
+    replicates = replicate_sigmoids(fits, replicas) if replicas else {}
+    lines += _figures(out, fits, results, dims, sigmoids, replicates)
+    lines += _seed_table(plan, fits, sigmoids, replicates)
     lines += _probe_table(plan, fits, results)
     lines += _regime_table(results)
     lines += _height_table(results)
-    if plan.replicate_seeds:
-        lines += _replicate_table(fits, collect_series(out / REPLICAS,
-                                                       ("hopper.lam", "run.seed")))
+    if replicas:
+        lines += _replicate_table(fits, replicas)
+        lines += _realization_table(fits, replicas, replicates)
     lines += _fits_table(fits)
     lines += _rates_table(results)
     report = out / "report.md"
