@@ -28,10 +28,23 @@ import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 from chute import benchmark_files, cpu_model, run_lammps  # benchmarks/chute.py, beside this
 
 BUSY = "import time, sys\nend = time.time() + float(sys.argv[1])\nwhile time.time() < end:\n    pass\n"
+
+
+def run_python(code: str, *args: object, env: dict[str, str] | None = None) -> dict:
+    """Run ``code`` with ``args`` in a fresh Python process on this checkout's sources, with
+    the threading layer fixed (``NUMBA_THREADING_LAYER``, default ``omp``) and warnings off,
+    and return the JSON object its last line prints."""
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    env = {**os.environ, "NUMBA_THREADING_LAYER": os.environ.get("NUMBA_THREADING_LAYER", "omp"),
+           "PYTHONPATH": src, "PYTHONWARNINGS": "ignore", **(env or {})}
+    out = subprocess.run([sys.executable, "-c", code, *map(str, args)], env=env,
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 @contextmanager

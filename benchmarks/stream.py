@@ -19,16 +19,10 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import subprocess
-import sys
-from pathlib import Path
 
 from chute import cpu_model  # benchmarks/chute.py, beside this script
-from shared import busy_processes  # benchmarks/shared.py, beside this script
-
-REPO = Path(__file__).resolve().parents[1]
+from shared import busy_processes, run_python  # benchmarks/shared.py, beside this
 
 WORKER = r"""
 import json, sys, time
@@ -50,14 +44,6 @@ print(json.dumps({"wall": end - start, "grains": sim.state.n,
 """
 
 
-def run(check: str, until: float, tail: float, threads: int) -> dict:
-    env = {**os.environ, "NUMBA_THREADING_LAYER": os.environ.get("NUMBA_THREADING_LAYER", "omp"),
-           "PYTHONPATH": str(REPO / "src")}
-    out = subprocess.run([sys.executable, "-c", WORKER, check, str(until), str(tail),
-                          str(threads)], env=env, capture_output=True, text=True, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
-
-
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--until", type=float, default=0.30)
@@ -71,7 +57,8 @@ def main(argv: list[str] | None = None) -> dict:
     results = {}
     for check in ("absolute", "relative"):
         with busy_processes(args.load, 3600.0):  # stopped when the run ends
-            results[check] = r = run(check, args.until, args.tail, args.threads)
+            results[check] = r = run_python(WORKER, check, args.until, args.tail,
+                                                        args.threads)
         print(f"{check:>8}: whole run to {args.until:g} s {r['wall']:.1f} s; last "
               f"{args.tail:g} s ({r['grains']} grains): {r['tail_rate'] / 1e6:.2f} M "
               f"particle-steps/s, {r['steps_per_build']:.1f} steps per list build", flush=True)
