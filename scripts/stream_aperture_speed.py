@@ -10,9 +10,9 @@ the stream followed to 6 cm, to ``--until`` s, then samples 25 frames 2 ms apart
   slab one diameter thick just above, centred on and just below the aperture plane, on the
   axis (r < d) and flux-weighted (<v^2>/<v>);
 - v0 of a fit v(z) = sqrt(v0^2 + 2 g z) to the mean speed below the aperture;
-- the outflow Q (grains per ms through the plane) and the bulk packing fraction phi_b of the
-  hopper, and the superficial speed Q V_grain / (phi_b A) (the speed the outflow would have
-  at the bulk's packing across the whole aperture A, as Beverloo's law is often read).
+- the outflow Q and the superficial speed Q V_grain / (phi_b A) (the speed the outflow would
+  have at the hopper bulk's packing phi_b across the whole aperture A, as Beverloo's law is
+  read; :func:`grainflow.analysis.stream.superficial_speed`, which the study reports too).
 
 Usage (about 3 minutes on 2 cores)::
 
@@ -28,7 +28,8 @@ import numpy as np
 from scipy.optimize import curve_fit
 
 from grainflow.analysis.stream import GRAVITY
-from grainflow.analysis.stream.fluctuations import free_fall_speed
+from grainflow.analysis.stream import (free_fall_speed, outflow_steadiness,
+                                       superficial_speed)
 from grainflow.scenarios.stream import StreamSection, build_stream
 
 
@@ -69,15 +70,14 @@ def main(argv: list[str] | None = None) -> None:
         print(f"| {label} | {100 * v.mean():.1f} | {100 * speed[axis].mean():.1f} | "
               f"{100 * (v**2).sum() / v.sum():.1f} | {phi:.3f} |")
 
-    below = (depth > 0.0) & (depth < d)
-    outflow = speed[below].sum() / n_frames / d  # grains per second through the plane
-    height = np.concatenate([f.position[g, 2] for f, g in zip(frames, grains)])
-    bulk = (height > 0.5e-3) & (height < 2.0e-3) & (r < 0.7 * 0.5 * section.hopper_diameter)
-    phi_b = bulk.sum() / n_frames * grain / (math.pi * (0.35 * section.hopper_diameter)**2
-                                             * 1.5e-3)
-    superficial = outflow * grain / (phi_b * math.pi * R**2)
-    print(f"outflow Q = {outflow / 1000:.1f} grains/ms; bulk packing phi_b = {phi_b:.3f}; "
-          f"superficial speed Q V_grain/(phi_b A) = {100 * superficial:.1f} cm/s")
+    flow = outflow_steadiness(frames)
+    superficial = superficial_speed(frames, flow.mean_rate,
+                                    aperture_diameter=section.aperture_diameter,
+                                    hopper_diameter=section.hopper_diameter,
+                                    fill_height=section.fill_height)
+    print(f"outflow Q = {flow.mean_rate / 1000:.1f} grains/ms; bulk packing phi_b = "
+          f"{superficial.phi_b:.3f}; superficial speed Q V_grain/(phi_b A) = "
+          f"{100 * superficial.speed:.1f} cm/s")
 
     edges = np.arange(0.0, 0.06 + 1e-9, 0.001)
     centres, means = [], []

@@ -265,6 +265,41 @@ def test_synthetic_free_falling_stream_gives_back_its_neighbourhood_size():
     assert speed.v0 == pytest.approx(np.sqrt(v0 ** 2 + G * D), abs=3 * s)
 
 
+def test_superficial_speed_spreads_the_outflow_at_the_bulk_packing():
+    """Q V_grain / (phi_b A) on a simple cubic bed of spacing 1.25 d (phi_b = (pi/6)/1.25^3 =
+    0.268) filling a 20 mm hopper 3 mm high (wide enough that the lattice counts the bulk's
+    volume to 1 %): grains outside the bulk region (the side wall's ring, the base, the top)
+    do not count, and a bed twice as dense halves the speed."""
+    hopper, height, aperture = 20e-3, 3e-3, 3e-3
+    a = 1.25 * D
+    n = int(hopper / a) + 1
+    bed = lattice((n, n, int(height / a)), spacing=a, origin=(-hopper / 2, -hopper / 2, a / 2))
+    bed = bed[np.hypot(bed[:, 0], bed[:, 1]) < hopper / 2]
+    outflow = 1.0e5  # grains per second
+    got = st.superficial_speed([make_frame(bed)] * 3, outflow, aperture_diameter=aperture,
+                               hopper_diameter=hopper, fill_height=height)
+    phi_b = np.pi / 6 / 1.25 ** 3
+    assert got.phi_b == pytest.approx(phi_b, rel=0.03) and got.n_frames == 3
+    expected = outflow * np.pi / 6 * D ** 3 / (phi_b * np.pi / 4 * aperture ** 2)
+    assert got.speed == pytest.approx(expected, rel=0.03)
+    stream = np.column_stack([np.zeros(50), np.zeros(50), -np.linspace(1e-3, 5e-2, 50)])
+    with_stream = st.superficial_speed(make_frame(np.vstack([bed, stream])), outflow,
+                                       aperture_diameter=aperture, hopper_diameter=hopper,
+                                       fill_height=height)
+    assert with_stream.phi_b == pytest.approx(got.phi_b, rel=1e-12)  # the stream is not bulk
+    shifted = bed + [a / 2, 0.0, 0.0]  # a second interleaved lattice: twice as dense
+    dense = st.superficial_speed(make_frame(np.vstack([bed, shifted])), outflow,
+                                 aperture_diameter=aperture, hopper_diameter=hopper,
+                                 fill_height=height)
+    assert dense.speed == pytest.approx(got.speed / 2, rel=0.03)
+    with pytest.raises(ValueError, match="bulk"):
+        st.superficial_speed(make_frame(stream), outflow, aperture_diameter=aperture,
+                             hopper_diameter=hopper, fill_height=height)
+    with pytest.raises(ValueError, match="fill_height"):
+        st.superficial_speed(make_frame(bed), outflow, aperture_diameter=aperture,
+                             hopper_diameter=hopper, fill_height=0.0)
+
+
 def test_fluctuation_errors():
     pos = lattice((2, 2, 2))
     with pytest.raises(ValueError, match="velocities"):

@@ -29,6 +29,7 @@ from grainflow.studies.points import run_sweeps
 #: given as (value, "max") where the seed states one ("saturates below ~30 grains").
 SEED: dict[str, tuple[float, str]] = {
     "v0 at the aperture (cm/s)": (10.0, "~"),
+    "v0 read as the superficial speed Q V/(phi_b A) (cm/s)": (10.0, "~"),
     "N_inf, clustering (F_c < 100 nN)": (30.0, "max"),
     "peak network size, droplets": (1100.0, "~"),
     "most probable aspect ratio": (2.0, "~"),
@@ -157,7 +158,7 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
     from grainflow.analysis.stream import (aperture_speed, classify_regime, contact_profiles,
                                            find_droplets, fit_free_fall_profile,
                                            outflow_steadiness, profile_value_at, stream_grains,
-                                           velocity_deviation_profile)
+                                           superficial_speed, velocity_deviation_profile)
 
     rundir = Path(rundir)
     frames, s = _window_frames(rundir)
@@ -166,6 +167,10 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
     depth_range = (0.0, s.stream_depth)
     speed = aperture_speed(frames)
     flow = outflow_steadiness(frames)
+    superficial = superficial_speed(frames, flow.mean_rate,
+                                    aperture_diameter=s.aperture_diameter,
+                                    hopper_diameter=s.hopper_diameter,
+                                    fill_height=s.fill_height)
     stream = [stream_grains(f) for f in frames]
     # the seed's 5 mm network bins; at least 10 bins over a shorter stream (the classifier's
     # peak and asymptote need them)
@@ -197,7 +202,8 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
              aspect=np.array([d.aspect_ratio for d in droplets]),
              droplet_size=np.array([d.ids.size for d in droplets]))
     peak = net.mean[below].max() if below.any() else float("nan")
-    return {"v0": speed.v0, "v0_err": speed.err, "outflow": flow.mean_rate,
+    return {"v0": speed.v0, "v0_err": speed.err, "v0_superficial": superficial.speed,
+            "phi_bulk": superficial.phi_b, "outflow": flow.mean_rate,
             "outflow_cv": flow.cv, "Z_4cm": z4.value, "Z_4cm_err": z4.err,
             "Z_depth": z4.depth,
             "N_inf": n_inf.value, "N_inf_err": n_inf.err, "N_inf_depth": n_inf.depth,
@@ -432,7 +438,9 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
                   f"{flow.max() / 1e3:.3g}); Beverloo's law with the usual C = 0.58, k = 1.5 "
                   f"and a bulk density 0.6 rho gives {beverloo / 1e3:.3g} grains/ms through this "
                   "aperture. v0 is the mean axial speed of the grains in the first diameter "
-                  "below the aperture.", ""]
+                  "below the aperture; the seed does not define its v0, and the seed table "
+                  "also reads it as the superficial speed Q V_grain/(phi_b A), the outflow "
+                  "spread over the aperture at the hopper's bulk packing phi_b.", ""]
     if len(fc):
         plot_phase_diagram(fc * 1e-9, e, [s["Z_4cm"] for s in summ], regime,
                            out / "phase_diagram.png")
@@ -527,6 +535,10 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     v0 = np.array([s["v0"] for s in summ])
     add("v0 at the aperture (cm/s)", 100 * float(np.mean(v0)) if v0.size else None,
         100 * float(np.std(v0)) if v0.size else None, ph.cpu)
+    u = np.array([s["v0_superficial"] for s in summ if "v0_superficial" in s])
+    add("v0 read as the superficial speed Q V/(phi_b A) (cm/s)",
+        100 * float(np.mean(u)) if u.size else None,
+        100 * float(np.std(u)) if u.size else None, ph.cpu)
     clustering = [i for i in range(len(fc)) if 0 < fc[i] < 100 and regime[i] == "clustering"]
     add("N_inf, clustering (F_c < 100 nN)",
         max(summ[i]["N_inf"] for i in clustering) if clustering else None, None, ph.cpu)

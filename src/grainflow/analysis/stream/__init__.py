@@ -45,6 +45,7 @@ from grainflow.analysis.stream.fluctuations import (SEED_DEVIATION_BIN, SEED_MIN
                                                     fit_free_fall_profile,
                                                     frame_velocity_deviations,
                                                     free_fall_axial_deviation, free_fall_speed,
+                                                    SuperficialSpeed, superficial_speed,
                                                     velocity_deviation_profile,
                                                     velocity_deviations)
 from grainflow.analysis.stream.networks import (SEED_CONTACT_BIN, SEED_NETWORK_BIN,
@@ -74,7 +75,8 @@ __all__ = [
     "VelocityDeviations", "velocity_deviations", "frame_velocity_deviations",
     "DeviationProfiles", "velocity_deviation_profile", "free_fall_speed",
     "free_fall_axial_deviation", "FreeFallFit", "fit_free_fall_deviation",
-    "fit_free_fall_profile", "ApertureSpeed", "aperture_speed",
+    "fit_free_fall_profile", "ApertureSpeed", "aperture_speed", "SuperficialSpeed",
+    "superficial_speed",
     # A7 droplets
     "SEED_MIN_GRAINS", "SEED_MIN_DEPTH", "SEED_EXCLUDE_FARTHEST", "DEFAULT_AZIMUTH_BINS",
     "DropletShape", "droplet_shape", "Droplet", "find_droplets", "DropletSelection",

@@ -35,7 +35,9 @@ With v0 and g known, dz is the only free parameter (:func:`fit_free_fall_deviati
 squares by :func:`scipy.optimize.least_squares`). For neighbours within 1.5 d on the grain's
 own axis, dz^2 is close to the mean of the squared axial offsets (dz_ij)^2 of the neighbours.
 v0 can be measured with :func:`aperture_speed`: the mean axial speed -v_z of the grains in the
-slab 0 < depth < d just below the aperture.
+slab 0 < depth < d just below the aperture. :func:`superficial_speed` gives another reading of
+the seed's undefined "v0 ~ 10 cm/s": the outflow spread over the whole aperture at the hopper
+bulk's packing fraction (docs/streams.md, "v0 by every reading").
 """
 
 from __future__ import annotations
@@ -62,7 +64,7 @@ __all__ = [
     "DeviationProfiles", "velocity_deviation_profile",
     "free_fall_speed", "free_fall_axial_deviation",
     "FreeFallFit", "fit_free_fall_deviation", "fit_free_fall_profile",
-    "ApertureSpeed", "aperture_speed",
+    "ApertureSpeed", "aperture_speed", "SuperficialSpeed", "superficial_speed",
 ]
 
 #: Neighbourhood radius in grain diameters, minimum neighbour count, and bin width (m) of the
@@ -439,3 +441,60 @@ def aperture_speed(
             else float("nan")
     return ApertureSpeed(v0=float(samples.mean()), err=err, count=int(samples.size),
                          n_frames=len(depths), slab=float(h))
+
+
+@dataclass(frozen=True, kw_only=True)
+class SuperficialSpeed:
+    """The outflow's superficial speed at the aperture (:func:`superficial_speed`).
+
+    Attributes
+    ----------
+    speed : Q V_grain / (phi_b A) (m/s). phi_b : the bulk packing fraction. count : grain
+        samples in the bulk region over all frames; n_frames : frames used.
+    """
+
+    speed: float
+    phi_b: float
+    count: int
+    n_frames: int
+
+
+def superficial_speed(
+    frames: Frame | Iterable[Frame],
+    outflow: float,
+    *,
+    aperture_diameter: float,
+    hopper_diameter: float,
+    fill_height: float,
+    grain_type: int | None = 0,
+) -> SuperficialSpeed:
+    """The speed u = Q V_grain / (phi_b A) at which ``outflow`` Q (grains per second) would
+    cross the whole aperture (area A = pi D^2/4) at the hopper bulk's packing fraction phi_b:
+    the superficial speed of Beverloo's law (Q = phi_b A u), one reading of seed 000's
+    undefined "v0 ~ 10 cm/s" at the aperture (docs/streams.md).
+
+    phi_b counts the grains' volumes (pi/6) d^3 with their centres in the cylinder
+    r < 0.35 D_h, H/6 < z < 2H/3 above the hopper's base (z = 0, the aperture's plane): away
+    from the side wall, the base and the refilled top, averaged over ``frames``."""
+    radius_b = 0.35 * _positive("hopper_diameter", hopper_diameter)
+    height = _positive("fill_height", fill_height)
+    area = 0.25 * np.pi * _positive("aperture_diameter", aperture_diameter) ** 2
+    lo, hi = height / 6.0, 2.0 * height / 3.0
+    volume, count, n_frames = 0.0, 0, 0
+    for frame in _each_frame(frames):
+        rows = _grain_mask(frame, grain_type)
+        x = np.asarray(frame.position, dtype=float)[rows]
+        r = np.asarray(frame.radius, dtype=float)[rows]
+        inside = (np.hypot(x[:, 0], x[:, 1]) < radius_b) & (x[:, 2] > lo) & (x[:, 2] < hi)
+        volume += float(np.sum(4.0 / 3.0 * np.pi * r[inside] ** 3))
+        count += int(inside.sum())
+        n_frames += 1
+    if n_frames == 0:
+        raise ValueError("frames: no frames given")
+    if count == 0:
+        raise ValueError(f"frames: no grain in the hopper's bulk (r < {radius_b:g} m, "
+                         f"{lo:g} < z < {hi:g} m); pass frames of a filled hopper")
+    phi_b = volume / (n_frames * np.pi * radius_b**2 * (hi - lo))
+    grain_volume = volume / count
+    return SuperficialSpeed(speed=float(outflow * grain_volume / (phi_b * area)),
+                            phi_b=float(phi_b), count=count, n_frames=n_frames)
