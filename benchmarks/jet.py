@@ -16,11 +16,8 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
-import os
-
-from chute import cpu_model  # benchmarks/chute.py, beside this script
-from shared import busy_processes, run_python  # benchmarks/shared.py, beside this
+# benchmarks/shared.py, beside this script
+from shared import busy_processes, list_check_options, print_machine, run_python
 
 WORKER = r"""
 import json, sys, time
@@ -44,20 +41,14 @@ print(json.dumps({"wall": wall, "rate": (sim.particle_steps - ps0) / wall,
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--until", type=float, default=40.0)
-    parser.add_argument("--threads", type=int, default=1)
-    parser.add_argument("--load", type=int, default=0)
-    args = parser.parse_args(argv)
-    layer = os.environ.get("NUMBA_THREADING_LAYER", "omp")
-    print(f"CPU: {cpu_model()}; threading layer: {layer}; threads: {args.threads}; "
-          f"busy processes beside each run: {args.load}")
+    args = list_check_options(__doc__, until=40.0, threads=1).parse_args(argv)
+    print_machine(args.threads, args.load)
     results: dict = {}
     for case in ("rheo3d", "rheo2d"):
         for check in ("absolute", "relative"):
             with busy_processes(args.load, 3600.0):  # stopped when the run ends
-                results[case, check] = r = run_python(WORKER, case, check, args.until,
-                                                                 args.threads)
+                r = run_python(WORKER, case, check, args.until, args.threads)
+                results[case, check] = r
             print(f"{case} {check:>8}: to t = {args.until:g} d/u0 {r['wall']:.1f} s, "
                   f"{r['rate'] / 1e6:.2f} M particle-steps/s, {r['steps_per_build']:.1f} "
                   "steps per list build", flush=True)

@@ -35,16 +35,38 @@ from chute import benchmark_files, cpu_model, run_lammps  # benchmarks/chute.py,
 BUSY = "import time, sys\nend = time.time() + float(sys.argv[1])\nwhile time.time() < end:\n    pass\n"
 
 
-def run_python(code: str, *args: object, env: dict[str, str] | None = None) -> dict:
+def threading_layer() -> str:
+    """numba's threading layer for the benchmarks run by :func:`run_python`: the environment's
+    ``NUMBA_THREADING_LAYER``, else ``omp`` (never numba's own choice)."""
+    return os.environ.get("NUMBA_THREADING_LAYER", "omp")
+
+
+def run_python(code: str, *args: object) -> dict:
     """Run ``code`` with ``args`` in a fresh Python process on this checkout's sources, with
-    the threading layer fixed (``NUMBA_THREADING_LAYER``, default ``omp``) and warnings off,
-    and return the JSON object its last line prints."""
+    the threading layer fixed (:func:`threading_layer`) and warnings off, and return the JSON
+    object its last line prints."""
     src = str(Path(__file__).resolve().parents[1] / "src")
-    env = {**os.environ, "NUMBA_THREADING_LAYER": os.environ.get("NUMBA_THREADING_LAYER", "omp"),
-           "PYTHONPATH": src, "PYTHONWARNINGS": "ignore", **(env or {})}
+    env = {**os.environ, "NUMBA_THREADING_LAYER": threading_layer(), "PYTHONPATH": src,
+           "PYTHONWARNINGS": "ignore"}
     out = subprocess.run([sys.executable, "-c", code, *map(str, args)], env=env,
                          capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def list_check_options(doc: str, *, until: float, threads: int) -> argparse.ArgumentParser:
+    """The options the list-check benchmarks (``stream.py``, ``jet.py``) share: ``--until``,
+    ``--threads`` and ``--load`` (busy processes beside each run)."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    parser.add_argument("--until", type=float, default=until)
+    parser.add_argument("--threads", type=int, default=threads)
+    parser.add_argument("--load", type=int, default=0)
+    return parser
+
+
+def print_machine(threads: int, load: int) -> None:
+    """The line every run of a list-check benchmark starts with: CPU, layer, threads, load."""
+    print(f"CPU: {cpu_model()}; threading layer: {threading_layer()}; threads: {threads}; "
+          f"busy processes beside each run: {load}")
 
 
 @contextmanager
@@ -59,6 +81,7 @@ def busy_processes(count: int, seconds: float) -> Iterator[None]:
         for p in busy:
             p.kill()
             p.wait()
+
 
 WORKER = r"""
 import json, math, sys, time

@@ -18,11 +18,8 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
-import os
-
-from chute import cpu_model  # benchmarks/chute.py, beside this script
-from shared import busy_processes, run_python  # benchmarks/shared.py, beside this
+# benchmarks/shared.py, beside this script
+from shared import busy_processes, list_check_options, print_machine, run_python
 
 WORKER = r"""
 import json, sys, time
@@ -45,20 +42,15 @@ print(json.dumps({"wall": end - start, "grains": sim.state.n,
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--until", type=float, default=0.30)
+    parser = list_check_options(__doc__, until=0.30, threads=2)
     parser.add_argument("--tail", type=float, default=0.04)
-    parser.add_argument("--threads", type=int, default=2)
-    parser.add_argument("--load", type=int, default=0)
     args = parser.parse_args(argv)
-    layer = os.environ.get("NUMBA_THREADING_LAYER", "omp")
-    print(f"CPU: {cpu_model()}; threading layer: {layer}; threads: {args.threads}; "
-          f"busy processes beside each run: {args.load}")
+    print_machine(args.threads, args.load)
     results = {}
     for check in ("absolute", "relative"):
         with busy_processes(args.load, 3600.0):  # stopped when the run ends
-            results[check] = r = run_python(WORKER, check, args.until, args.tail,
-                                                        args.threads)
+            r = run_python(WORKER, check, args.until, args.tail, args.threads)
+            results[check] = r
         print(f"{check:>8}: whole run to {args.until:g} s {r['wall']:.1f} s; last "
               f"{args.tail:g} s ({r['grains']} grains): {r['tail_rate'] / 1e6:.2f} M "
               f"particle-steps/s, {r['steps_per_build']:.1f} steps per list build", flush=True)

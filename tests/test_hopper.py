@@ -540,7 +540,8 @@ def test_the_crossing_kernel_follows_the_rule_on_random_flags_and_heights() -> N
 def test_replicate_table_gives_each_seed_and_the_spread() -> None:
     """The report's replicate table: q2d's fit as seed 0, each other seed's free fit, and
     the mean and sample standard deviation of beta."""
-    from grainflow.studies.hopper_authors import Series, _replicate_table, three_fits
+    from grainflow.studies.hopper_authors import (Series, _replicate_table, realization_fits,
+                                                  three_fits)
 
     widths = [3.0, 4.6, 6.2, 7.8, 9.4, 10.6]
 
@@ -550,7 +551,7 @@ def test_replicate_table_gives_each_seed_and_the_spread() -> None:
 
     fits = {"q2d": {(0.0, None, None): three_fits(series(1.8), 2, 0.0)}}
     replicas = {(0.0, 1.0): series(1.6), (0.0, 2.0): series(1.7)}
-    text = "\n".join(_replicate_table(fits, replicas))
+    text = "\n".join(_replicate_table(realization_fits(fits, replicas)))
     for seed, beta in ((0, "1.8"), (1, "1.6"), (2, "1.7")):
         assert f"| 0 | {seed} | {beta} ± " in text
     assert "| 0 | mean ± s.d. (3) | 1.7 ± 0.1 |" in text
@@ -563,7 +564,8 @@ def test_realizations_give_lambda_c_each_and_pooled() -> None:
     from grainflow.analysis.hopper import beta_sigmoid
     from grainflow.studies.hopper_authors import (AUTHORS_REDUCED, POOLED, Series,
                                                   _realization_table, _seed_table,
-                                                  replicate_sigmoids, three_fits)
+                                                  realization_fits, replicate_sigmoids,
+                                                  three_fits)
 
     widths = [3.0, 4.6, 6.2, 7.8, 9.4, 10.6]
     lams = [0.0, 0.005, 0.02, 0.05, 0.181, 1.0, math.inf]
@@ -580,13 +582,14 @@ def test_realizations_give_lambda_c_each_and_pooled() -> None:
     fits = {"q2d": {(lam, None, None): three_fits(series(beta(lam, 0.1)), 2, lam)
                     for lam in lams}}
     replicas = {(lam, 1.0): series(beta(lam, 0.2)) for lam in lams}
-    replicates = replicate_sigmoids(fits, replicas)
+    realizations = realization_fits(fits, replicas)
+    replicates = replicate_sigmoids(realizations)
     assert replicates[0]["free"].lambda_c == pytest.approx(0.1, rel=0.02)
     assert replicates[1]["free"].lambda_c == pytest.approx(0.2, rel=0.02)
     pooled = replicates[POOLED]["free"]
     assert 0.1 < pooled.lambda_c < 0.2
     assert pooled.lambda_c_err > 0.1 * pooled.lambda_c  # the spread, not the fits' 1 %
-    table = "\n".join(_realization_table(fits, replicas, replicates))
+    table = "\n".join(_realization_table(realizations, replicates))
     assert "| λ | seed 0 | seed 1 | mean ± s.d. |" in table
     assert "| λ_c (free betas) | 0.1 ± " in table
     seed_rows = "\n".join(_seed_table(AUTHORS_REDUCED, fits, {"q2d": {}, "q3d": {}, **{

@@ -316,16 +316,26 @@ def _sigmoid_fits(plan: AuthorsPlan, fits: dict) -> dict[Any, dict[str, Any]]:
 POOLED = "pooled"
 
 
-def replicate_sigmoids(fits: dict, replicas: dict[tuple, Series]) -> dict[Any, dict[str, Any]]:
-    """2D lambda_c of each realization (seed -> sigmoids; q2d is seed 0) and of all of them
-    pooled (:data:`POOLED`: one unweighted fit to every realization's betas, its error from
-    their scatter about the sigmoid, so it holds the spread between realizations)."""
-    by_seed: dict[int, list[tuple[float, dict[str, Any]]]] = {
-        0: [(key[0], f) for key, f in fits.get("q2d", {}).items()]}
-    for (lam, seed), ser in sorted(replicas.items()):
-        by_seed.setdefault(int(seed), []).append((lam, three_fits(ser, 2, lam)))
+def realization_fits(fits: dict, replicas: dict[tuple, Series]) -> dict[tuple[float, int], Any]:
+    """The three fits of every 2D realization keyed (lambda, seed): q2d's as seed 0, each
+    replicate series (keyed (lambda, seed), :func:`collect_series`) fitted once."""
+    out: dict[tuple[float, int], Any] = {(key[0], 0): f for key, f in fits.get("q2d", {}).items()}
+    out.update({(lam, int(seed)): three_fits(ser, 2, lam)
+                for (lam, seed), ser in replicas.items()})
+    return out
+
+
+def replicate_sigmoids(realizations: dict[tuple[float, int], Any]) -> dict[Any, dict[str, Any]]:
+    """2D lambda_c of each realization (seed -> sigmoids) of :func:`realization_fits` and of
+    all of them pooled (:data:`POOLED`: one unweighted fit to every realization's betas, its
+    error from their scatter about the sigmoid, so it holds the spread between
+    realizations)."""
+    by_seed: dict[int, list[tuple[float, dict[str, Any]]]] = {}
+    for (lam, seed), three in sorted(realizations.items()):
+        by_seed.setdefault(seed, []).append((lam, three))
     out: dict[Any, dict[str, Any]] = {seed: _sigmoids(pts, 2) for seed, pts in by_seed.items()}
-    out[POOLED] = _sigmoids([pt for pts in by_seed.values() for pt in pts], 2, weighted=False)
+    out[POOLED] = _sigmoids([(lam, three) for (lam, _), three in realizations.items()], 2,
+                            weighted=False)
     return out
 
 
@@ -477,17 +487,16 @@ def _height_table(results: dict) -> list[str]:
     return lines
 
 
-def _replicate_table(fits: dict, replicas: dict[tuple, Series]) -> list[str]:
-    """The free beta of the 2D limits for every seed (q2d is seed 0), their mean and sample
-    standard deviation: the spread between realizations, which the fits' errors do not hold."""
+def _replicate_table(realizations: dict[tuple[float, int], Any]) -> list[str]:
+    """The free beta of the 2D limits for every seed of :func:`realization_fits`, their mean
+    and sample standard deviation: the spread between realizations, which the fits' errors do
+    not hold."""
     lines = ["", "## Replicates of the 2D limits (free fits)", "",
              "| λ | seed | β | k | C |", "|---|---|---|---|---|"]
     for lam in (0.0, math.inf):
         betas = []
-        rows = [(0, fits.get("q2d", {}).get((lam, None, None), {}).get("free"))]
-        rows += [(int(seed), three_fits(ser, 2, lam).get("free"))
-                 for (lam_r, seed), ser in sorted(replicas.items()) if lam_r == lam]
-        for seed, f in rows:
+        for seed in sorted(seed for lam_r, seed in realizations if lam_r == lam):
+            f = realizations[lam, seed].get("free")
             lines.append(f"| {_arrow(lam)} | {seed} | {fit_cell(f, 'beta')} | "
                          f"{fit_cell(f, 'k')} | {fit_cell(f, 'C')} |")
             if f is not None:
@@ -498,16 +507,15 @@ def _replicate_table(fits: dict, replicas: dict[tuple, Series]) -> list[str]:
     return lines
 
 
-def _realization_table(fits: dict, replicas: dict[tuple, Series],
+def _realization_table(realizations: dict[tuple[float, int], Any],
                        replicates: dict[Any, dict[str, Any]]) -> list[str]:
-    """The free beta at every lambda for every realization with their mean and sample
-    standard deviation, then lambda_c of each realization and of all pooled."""
+    """The free beta at every lambda for every realization of :func:`realization_fits` with
+    their mean and sample standard deviation, then lambda_c of each realization
+    (:func:`replicate_sigmoids`) and of all pooled."""
     betas: dict[float, dict[int, Any]] = {}
-    for key, f in fits.get("q2d", {}).items():
-        betas.setdefault(key[0], {})[0] = f.get("free")
-    for (lam, seed), ser in replicas.items():
-        betas.setdefault(lam, {})[int(seed)] = three_fits(ser, 2, lam).get("free")
-    seeds = sorted({seed for row in betas.values() for seed in row})
+    for (lam, seed), three in realizations.items():
+        betas.setdefault(lam, {})[seed] = three.get("free")
+    seeds = sorted({seed for _, seed in realizations})
     lines = ["", "## beta(lambda) and lambda_c of each 2D realization (free fits)", "",
              "| λ | " + " | ".join(f"seed {s}" for s in seeds) + " | mean ± s.d. |",
              "|---|" + "---|" * (len(seeds) + 1)]
@@ -603,15 +611,16 @@ def reproduce_authors(out_dir: str | Path, *, reduced: bool = True,
     sigmoids = _sigmoid_fits(plan, fits)
     replicas = (collect_series(out / REPLICAS, ("hopper.lam", "run.seed"))
                 if plan.replicate_seeds else {})
-    replicates = replicate_sigmoids(fits, replicas) if replicas else {}
+    realizations = realization_fits(fits, replicas) if replicas else {}
+    replicates = replicate_sigmoids(realizations) if replicas else {}
     lines += _figures(out, fits, results, dims, sigmoids, replicates)
     lines += _seed_table(plan, fits, sigmoids, replicates)
     lines += _probe_table(plan, fits, results)
     lines += _regime_table(results)
     lines += _height_table(results)
     if replicas:
-        lines += _replicate_table(fits, replicas)
-        lines += _realization_table(fits, replicas, replicates)
+        lines += _replicate_table(realizations)
+        lines += _realization_table(realizations, replicates)
     lines += _fits_table(fits)
     lines += _rates_table(results)
     report = out / "report.md"

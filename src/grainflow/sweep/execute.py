@@ -420,8 +420,8 @@ def worker_environment() -> Iterator[None]:
     the later ``NUMBA_NUM_THREADS = 1`` makes numba refuse every compilation in that worker
     ("Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
     launched"): every point failed. dask's pre-spawn environment is put into this process's
-    environment before each spawn (a restarted worker's too); this process's own values come
-    back when the block ends."""
+    environment before each spawn (a restarted worker's too) and into the worker's own;
+    this process's own values come back when the block ends."""
     saved = {key: os.environ.get(key) for key in WORKER_ENV}
     pre_spawn = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}),
                  **WORKER_ENV}
@@ -457,7 +457,6 @@ def open_client(
         processes=True,
         host="127.0.0.1",
         dashboard_address=None,
-        env=WORKER_ENV,
     ) as cluster, Client(cluster) as client:
         console.out(f"started a local cluster: {n_workers} single-threaded workers")
         yield client
