@@ -351,16 +351,43 @@ def test_relative_data_path_is_resolved_at_the_driver(tmp_path, scheduler, monke
 
 
 def test_names_and_units_are_not_taken_for_paths(tmp_path, monkeypatch):
+    """Only file-path fields are resolved: a scenario's name, a law or a unit stays as it is
+    even where a file or folder of that name exists in the folder (a folder ``jet2d`` beside
+    a sweep of the ``jet2d`` scenario once failed every point: "scenario: '/.../jet2d' is not
+    known")."""
     (tmp_path / "granular").write_text("")  # a file named like a contact law
+    (tmp_path / "jet2d").mkdir()  # a folder named like a scenario
+    (tmp_path / "grains.data").write_text("")
     monkeypatch.chdir(tmp_path)
     from grainflow.sweep.spec import absolute_paths
 
-    value = {"law": "granular", "x": "1.5 mm", "f": ["grains.data", "granular"]}
-    (tmp_path / "grains.data").write_text("")
-    out = absolute_paths(value, tmp_path / "sub")
-    assert out == value, "nothing exists under sub/: nothing changes"
+    value = {"scenario": "jet2d", "contact": {"law": "granular"}, "x": "1.5 mm",
+             "f": ["grains.data", "granular"],
+             "particles": [{"fill": "lammps_data", "file": "grains.data"}],
+             "chute": {"data_file": "grains.data"}}
+    assert absolute_paths(value, tmp_path / "sub") == value, "nothing exists under sub/"
     out = absolute_paths(value, tmp_path)
-    assert out["x"] == "1.5 mm" and out["f"][0] == str(tmp_path / "grains.data")
+    resolved = str(tmp_path / "grains.data")
+    assert out["particles"][0]["file"] == resolved and out["chute"]["data_file"] == resolved
+    assert {k: out[k] for k in ("scenario", "contact", "x", "f")} == \
+        {k: value[k] for k in ("scenario", "contact", "x", "f")}
+    # one field's value, as an override gives it
+    assert absolute_paths("grains.data", tmp_path, "data_file") == resolved
+    assert absolute_paths("jet2d", tmp_path, "scenario") == "jet2d"
+
+
+def test_a_sweep_beside_folders_named_like_its_scenario_and_law(tmp_path, monkeypatch):
+    """The point's config keeps the names and validates (it once named the folders)."""
+    from grainflow.config.schema import load_config
+
+    (tmp_path / "generic").mkdir()
+    (tmp_path / "granular").mkdir()
+    monkeypatch.chdir(tmp_path)
+    spec = parse_sweep({"base": {**TINY, "scenario": "generic"},
+                        "overrides": {"contact.law": ["granular"]}})
+    config = spec.point_config(spec.points()[0])
+    assert config["scenario"] == "generic" and config["contact"]["law"] == "granular"
+    load_config(config)
 
 
 # ---------------------------------------------------------------------------------------

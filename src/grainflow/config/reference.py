@@ -35,7 +35,6 @@ from pydantic_core import PydanticUndefined
 from grainflow.config import schema as S
 from grainflow.config.contact import Contact, ContactPair, reference_markdown as contact_reference
 from grainflow.scenarios import SCENARIOS, get_scenario
-from grainflow.units import DIMENSIONS
 
 __all__ = ["FieldDoc", "TableDoc", "describe_type", "reference_markdown", "tables"]
 
@@ -170,6 +169,28 @@ def tables() -> list[TableDoc]:
         out.append(TableDoc(anchor, title, model, f"{_doc(model)}\n\n{intro}".strip(),
                             _fields(model)))
     return out
+
+
+def file_path_fields() -> frozenset[str]:
+    """Names of the fields, in any table of a run configuration, that hold a file path
+    (:data:`grainflow.config.schema.FilePath`, a list of them or an optional one). A sweep makes
+    only these absolute against the folder of the file that wrote them
+    (:func:`grainflow.sweep.spec.absolute_paths`): any other string, a scenario's name or a
+    unit, stays what it is even where a file or folder of that name exists."""
+    return frozenset(name for table in tables()
+                     for name, info in table.model.model_fields.items()
+                     if _holds_file_path(info.annotation, list(info.metadata)))
+
+
+def _holds_file_path(tp: Any, meta: list[Any]) -> bool:
+    origin = get_origin(tp)
+    if origin is Annotated:
+        base, *inner = get_args(tp)
+        return _holds_file_path(base, [*inner, *meta])
+    if origin in (Union, UnionType, list, tuple):
+        return any(_holds_file_path(arg, meta if origin in (Union, UnionType) else [])
+                   for arg in get_args(tp) if arg is not NoneType and arg is not Ellipsis)
+    return tp is str and _has_validator(_flat(meta), "_existing_file")
 
 
 #: The fields of ``[contact]`` documented in its own table; the parameters of the

@@ -207,7 +207,8 @@ class SweepSpec(BaseModel):
         """The config a point runs: :meth:`Point.config` with relative file paths made
         absolute against the folder of the file that wrote them (see :func:`absolute_paths`)."""
         config = absolute_paths(self.base, self._base_dir)
-        overrides = {k: absolute_paths(v, self._overrides_dir) for k, v in point.overrides.items()}
+        overrides = {k: absolute_paths(v, self._overrides_dir, k.rsplit(".", 1)[-1])
+                     for k, v in point.overrides.items()}
         return Point(overrides, point.seed_field, point.seed).config(config)
 
     def resolved_base(self) -> dict[str, Any]:
@@ -312,21 +313,32 @@ def set_dotted(config: dict[str, Any], path: str, value: Any) -> None:
     node[leaf] = value
 
 
-def absolute_paths(value: Any, folder: Path | None) -> Any:
-    """A deep copy of ``value`` in which every relative path string naming an existing file
-    or folder under ``folder`` (default: the working directory) is made absolute.
+def absolute_paths(value: Any, folder: Path | None, key: str | None = None) -> Any:
+    """A deep copy of ``value`` (a config, a table or one field's value, ``key`` its field
+    name) in which every relative path in a file-path field
+    (:func:`grainflow.config.reference.file_path_fields`: ``file``, ``data_file``) naming an
+    existing file or folder under ``folder`` (default: the working directory) is made
+    absolute.
 
     A config's relative paths (a LAMMPS data file, ...) mean "next to the file that wrote
     them"; a worker resolves them against its own working directory, which on a cluster is
-    anywhere. Only strings that name something that exists are changed, so names, units
-    and other values pass unchanged.
+    anywhere. Only the file-path fields are touched, so a scenario's name, a unit or any
+    other string passes unchanged even where a file or folder of that name exists (a folder
+    ``jet2d`` beside a sweep of the ``jet2d`` scenario).
     """
-    folder = Path.cwd() if folder is None else folder
+    from grainflow.config.reference import file_path_fields
+
+    return _absolute_paths(value, Path.cwd() if folder is None else folder, key,
+                           file_path_fields())
+
+
+def _absolute_paths(value: Any, folder: Path, key: str | None, fields: frozenset[str]) -> Any:
     if isinstance(value, dict):
-        return {k: absolute_paths(v, folder) for k, v in value.items()}
+        return {k: _absolute_paths(v, folder, k, fields) for k, v in value.items()}
     if isinstance(value, list):
-        return [absolute_paths(v, folder) for v in value]
-    if isinstance(value, str) and value and "\n" not in value and len(value) < 4096:
+        return [_absolute_paths(v, folder, key, fields) for v in value]
+    if key in fields and isinstance(value, str) and value and "\n" not in value \
+            and len(value) < 4096:
         path = Path(value).expanduser()
         if not path.is_absolute():
             try:
@@ -514,4 +526,3 @@ def _valid_keys(loc: tuple[Any, ...]) -> list[str]:
 def _short(value: Any, limit: int = 80) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
-
