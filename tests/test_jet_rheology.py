@@ -149,6 +149,34 @@ def test_half_cell_d_xy_of_a_linear_shear_in_both_layers():
     np.testing.assert_allclose(la.I_T, np.sqrt(la.T_g / la.P))
 
 
+def test_normal_rates_of_a_stagnation_flow_with_shear():
+    """v_x = v0 + b y - e x, v_y = a x + e y (incompressible, the extension e along the axes
+    of a stagnation line): dv_x/dx = -e and dv_y/dy = e by the same half-cell differences,
+    D_ext = -e, D_dev = hypot(D_xy, e), shear fraction |D_xy| / D_dev, I_dev = D_dev sqrt(m/P).
+    With a = b = 0 the flow is a pure extension: D_xy = 0, shear fraction 0, yet I_dev > 0."""
+    dy = R_TAR_2D / 5
+    xs = np.concatenate([lo + 5.0 * np.array([1, 3, 5, 7]) / 8 for lo in (0.0, 5.0)])
+    ys = np.concatenate([[j * dy - dy / 4, j * dy + dy / 4] for j in range(-5, 6)])
+    pos = np.array([(x, y) for x in xs for y in ys])
+    for a, b, e in ((0.02, 0.01, 0.03), (0.0, 0.0, 0.03)):
+        vel = np.column_stack([-1.0 + b * pos[:, 1] - e * pos[:, 0], a * pos[:, 0] + e * pos[:, 1]])
+        for lay in jr.layer_fields_2d([make_frame(pos, vel)], R_TAR_2D):
+            v = lay.values
+            np.testing.assert_allclose(v["dvx_dx"], -e, atol=1e-12)
+            np.testing.assert_allclose(v["dvy_dy"], e, atol=1e-12)
+            np.testing.assert_allclose(lay.D, (a + b) / 2, atol=1e-12)
+            np.testing.assert_allclose(v["D_ext"], -e, atol=1e-12)
+            np.testing.assert_allclose(v["D_dev"], np.hypot((a + b) / 2, e), atol=1e-12)
+            np.testing.assert_allclose(v["shear_fraction"],
+                                       abs(a + b) / 2 / np.hypot((a + b) / 2, e), atol=1e-9)
+            np.testing.assert_allclose(v["I_dev"], v["D_dev"] * np.sqrt(1.0 / lay.P))
+        if a == b == 0:
+            assert np.all(lay.I < 1e-9) and np.all(v["I_dev"] > 0)
+    # 3D layers have no such values
+    gas = _gas(np.random.default_rng(5), n=200)
+    assert "I_dev" not in jr.layer_fields_3d([gas], R_TAR).values
+
+
 # --- the target's wall particles -------------------------------------------------------------
 
 def _target_frame():
@@ -310,6 +338,44 @@ def test_fits_recover_the_seed_parameters():
     assert (p.mu_s, p.b, p.beta) == pytest.approx((0.0, 1.18, 0.592), rel=1e-6, abs=1e-12)
     with pytest.raises(ValueError, match="law"):
         jr.fit_friction_2d(t, "linear")
+
+
+def _layer_2d(lo, **values):
+    t = _table(2, **values)
+    return jr.LayerFields(dim=2, target_radius=1.0, layer=(lo, lo + 5.0), edges=t.edges,
+                          values=t.values, errors=t.errors)
+
+
+def test_fit_choices_2d_tell_the_layers_weights_and_strain_rates_apart():
+    """Layer (a) follows phi = 0.85 - I^(2/2), layer (b) phi = 0.81 - 3 I^(2/1.2), with the
+    same I_T and I_dev = I; cells of (b) with I < 0.02 flow by extension (shear fraction 0.1).
+    Each choice gives back what it selects."""
+    I = np.geomspace(0.005, 0.12, 16)  # noqa: E741
+    mu = 0.01 + 0.5 / (1 + 0.08 / I)
+    phi_a = 0.85 - I
+    phi_b = 0.81 - 3.0 * I ** (2 / 1.2)
+    frac_b = np.where(I < 0.02, 0.1, 0.9)
+    a = _layer_2d(0.0, I=I, I_dev=I, I_T=((0.87 - phi_a) / 0.5) ** (1.5 / 2), phi=phi_a,
+                  mu_folded=mu, shear_fraction=np.full(I.size, 0.9))
+    b = _layer_2d(5.0, I=I, I_dev=I, I_T=((0.87 - phi_b) / 0.5) ** (1.5 / 2), phi=phi_b,
+                  mu_folded=mu, shear_fraction=frac_b)
+    rows = {r.label: r for r in jr.fit_choices_2d([a, b])}
+    assert set(rows) == {"every cell, weighted (the table)", "every cell, unweighted",
+                         "layer (a) alone", "layer (b) alone",
+                         "cells with shear fraction >= 0.5", "I_dev in place of I_s"}
+    ra, rb = rows["layer (a) alone"], rows["layer (b) alone"]
+    assert (ra.I_s.phi_c, ra.I_s.alpha) == pytest.approx((0.85, 2.0), rel=1e-4)
+    assert (rb.I_s.phi_c, rb.I_s.alpha) == pytest.approx((0.81, 1.2), rel=1e-4)
+    assert ra.I_T.phi_c == pytest.approx(0.87, rel=1e-4) and ra.cells == rb.cells == 16
+    assert ra.friction.I0 == pytest.approx(0.08, rel=1e-4)
+    both = rows["every cell, weighted (the table)"]
+    assert both.cells == 32 and 0.81 < both.I_s.phi_c < 0.85
+    assert rows["cells with shear fraction >= 0.5"].cells == 32 - int(np.sum(I < 0.02))
+    assert rows["I_dev in place of I_s"].I_s.phi_c == pytest.approx(both.I_s.phi_c)
+    with pytest.raises(ValueError, match="layers"):
+        jr.fit_choices_2d([_table(3, I=I, phi=phi_a)])
+    with pytest.raises(ValueError, match="number"):
+        jr.fit_friction_2d(a, number="I_T")
 
 
 def test_points_select_cells_and_drop_weights_when_errors_are_missing():

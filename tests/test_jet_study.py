@@ -48,6 +48,32 @@ def test_table_verdicts_use_the_seed_uncertainty_or_ten_percent() -> None:
                          "mu_max", "I0", "a (frictional)", "a (frictionless)"}
 
 
+def test_report_lists_the_2d_fits_under_each_choice() -> None:
+    """The report's table of fit choices: one row per choice, the layer (a) row recovers the
+    layer's own phi_s, and a fit that cannot be made prints '-'."""
+    from grainflow.analysis.jet.rheology import LayerFields
+
+    I = np.geomspace(0.005, 0.12, 16)  # noqa: E741
+    mu = 0.01 + 0.5 / (1 + 0.08 / I)
+
+    def layer(lo: float, phi: np.ndarray) -> LayerFields:
+        values = {"I": I, "I_dev": I, "I_T": ((0.87 - phi) / 0.5) ** 0.75, "phi": phi,
+                  "mu_folded": mu, "shear_fraction": np.where(I < 0.02, 0.1, 0.9)}
+        return LayerFields(dim=2, target_radius=1.0, layer=(lo, lo + 5.0),
+                           edges=np.linspace(0.0, 1.0, 17), values=values,
+                           errors={k: np.full(16, 0.005) for k in values})
+
+    lines = jet_study._fit_choices_lines([layer(0.0, 0.85 - I), layer(5.0, 0.81 - I)])
+    rows = [line for line in lines if line.startswith("| ") and "---" not in line][1:]
+    assert len(rows) == 6
+    inner = next(row for row in rows if row.startswith("| layer (a) alone"))
+    assert inner.split("|")[3].strip() == "0.85"
+    flat = [layer(0.0, np.full(16, 0.8))]  # no divergence to fit, one layer only
+    rows = [line for line in jet_study._fit_choices_lines(flat) if line.startswith("| ")]
+    assert not any(row.startswith("| layer (b)") for row in rows)
+    assert all(row.split("|")[3].strip() == "-" for row in rows[2:])
+
+
 @pytest.fixture(scope="module")
 def small_jet_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from grainflow.runner import run_config

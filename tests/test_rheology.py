@@ -340,3 +340,16 @@ _Y = 0.3 * _X
 def test_bad_inputs_raise_value_error_naming_the_argument(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_a_fit_that_does_not_converge_raises_value_error(monkeypatch):
+    """curve_fit's RuntimeError (its evaluations used up) becomes a ValueError naming the
+    axis, so that a study's report can mark the fit as not made rather than stop."""
+    def exhausted(*args, **kwargs):
+        raise RuntimeError("Optimal parameters not found: The maximum number of function "
+                           "evaluations is exceeded.")
+
+    monkeypatch.setattr(rh, "curve_fit", exhausted)
+    I = np.geomspace(0.005, 1.0, 12)  # noqa: E741
+    with pytest.raises(ValueError, match="I: the fit of .* did not converge"):
+        rh.fit_mu_of_I(I, 0.1 + 0.4 / (1 + 0.08 / I))

@@ -302,11 +302,17 @@ def _least_squares(
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OptimizeWarning)  # singular covariance: checked below
-        popt, pcov = curve_fit(
-            model, x, y, p0=p0, sigma=err, absolute_sigma=err is not None,
-            bounds=(-np.inf, np.inf) if lower is None else (lower, np.inf),
-            method="lm" if lower is None else "trf",
-        )
+        try:
+            popt, pcov = curve_fit(
+                model, x, y, p0=p0, sigma=err, absolute_sigma=err is not None,
+                bounds=(-np.inf, np.inf) if lower is None else (lower, np.inf),
+                method="lm" if lower is None else "trf",
+            )
+        except RuntimeError as exc:  # no convergence within curve_fit's evaluations
+            raise ValueError(
+                f"{x_name}: the fit of {getattr(model, '__name__', 'the law')} did not converge "
+                f"({exc}); the data may not follow the law over this range of {x_name}"
+            ) from None
     if not np.all(np.isfinite(pcov)):
         raise ValueError(
             f"{x_name}: the data do not determine all parameters (singular covariance); "

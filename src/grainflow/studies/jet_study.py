@@ -206,8 +206,8 @@ def anisotropy_summary(rundir: str | Path) -> dict[str, float]:
 
 
 # ----------------------------------------------------------------------------- collection
-def _mean_by(keys: list[float], values: list[float]) -> tuple[np.ndarray, np.ndarray,
-                                                               np.ndarray]:
+def _mean_by(keys: list[float], values: list[float]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Replica mean and its standard error (replica spread / sqrt(n); a single replica's
     error is NaN) per distinct key."""
     groups: dict[float, list[float]] = {}
@@ -257,6 +257,29 @@ def _layers_2d(points: SweepPoints, window: tuple[float, float]) -> dict[float, 
             for phi, reps in sorted(groups.items())}
 
 
+def _fit_choices_lines(layers: list[Any]) -> list[str]:
+    """Report lines: the 2D fits under each choice the seed leaves open
+    (:func:`grainflow.analysis.jet.rheology.fit_choices_2d`)."""
+    from grainflow.analysis.jet.rheology import fit_choices_2d
+
+    def cell(fit: Any, attr: str) -> str:
+        return "-" if fit is None else f"{getattr(fit, attr):.3g}"
+
+    lines = ["", "2D fits under the choices the seed leaves open (the table below uses the "
+             "first row; the seed: phi_s 0.834, alpha_s 1.36, phi_T 0.858, a_T 0.980, "
+             "alpha_T 1.15, mu_max 0.521, I0 0.082). The shear fraction is |D_xy| / "
+             "sqrt(D_xy^2 + D_ext^2): on the stagnation line the flow is an extension and "
+             "D_xy ~ 0; I_dev uses the whole deviatoric rate:", "",
+             "| cells, weights, strain rate | cells | phi_s | a_s | alpha_s | phi_T | a_T | "
+             "alpha_T | mu_s | mu_max | I0 |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for row in fit_choices_2d(layers):
+        lines.append(f"| {row.label} | {row.cells} | " + " | ".join(
+            [cell(row.I_s, a) for a in ("phi_c", "a", "alpha")]
+            + [cell(row.I_T, a) for a in ("phi_c", "a", "alpha")]
+            + [cell(row.friction, a) for a in ("mu_s", "mu_max", "I0")]) + " |")
+    return lines
+
+
 def _dead_zone_line(label: str, points: SweepPoints, match: dict[str, float],
                     window: tuple[float, float]) -> str:
     """One report line: the dead zone of the first replica matching ``match``."""
@@ -295,7 +318,7 @@ class _Table:
 def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
               n_workers: int | None = None, progress: str = "auto") -> Path:
     """Run (or continue) the jet study into ``out_dir`` and write ``out_dir/report.md``."""
-    from grainflow.analysis.jet import eccentricity, fit_psi0
+    from grainflow.analysis.jet import fit_psi0
     from grainflow.analysis.jet.rheology import (
         fit_divergence_2d,
         fit_friction_2d,
@@ -413,6 +436,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         if 0.9 in layers2:
             plot_stress_profiles(list(layers2[0.9]), out / "stress_2d.png")
             lines.append("![stress 2D](stress_2d.png)")
+        lines += _fit_choices_lines(flat2)
 
     lines += ["", "Dead zone (cells next to the target with mean speed < 0.1 u0 and sqrt(T_g/m) < "
               "0.05 u0; the seed: one in 2D layer (a), none in 3D):", ""]

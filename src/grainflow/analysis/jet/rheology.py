@@ -58,8 +58,9 @@ from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, M
                                          inertial_number, temperature_number)
 from grainflow.frame import Frame
 
-__all__ = ["GRAIN_TYPES", "TARGET_TYPE", "KineticTheoryCheck", "LayerFields", "fit_divergence_2d",
-           "fit_friction_2d", "fit_friction_3d", "kinetic_theory_check",
+__all__ = ["GRAIN_TYPES", "TARGET_TYPE", "FitChoice2D", "KineticTheoryCheck", "LayerFields",
+           "fit_choices_2d", "fit_divergence_2d", "fit_friction_2d", "fit_friction_3d",
+           "kinetic_theory_check",
            "VALUE_NAMES", "layer_flatness", "layer_fluctuations", "layer_fields_2d",
            "layer_fields_3d", "pool", "rheology_points"]
 
@@ -203,6 +204,9 @@ def _values(mesh: _Mesh, main: CGFields, half: CGFields, shifted: CGFields, diam
         grad_axis = np.diff(v_shift[:, axial]) / mesh.spacing
         D = 0.5 * (grad_wall + grad_axis)
         diag = np.diagonal(sigma, axis1=-2, axis2=-1)
+        if dim == 2:
+            normal = _normal_strain_rates_2d(mesh, v_half, v_shift, D)
+            normal["I_dev"] = inertial_number(normal["D_dev"], P, diameter, mass, dim)
         values = {
             "phi": main.packing_fraction,
             "n": n,
@@ -222,14 +226,36 @@ def _values(mesh: _Mesh, main: CGFields, half: CGFields, shifted: CGFields, diam
             "P_over_nT": P / (n * T_g),
             "P_alpha_over_nT_alpha": diag / (n[:, None] * T_alpha),
         }
+        if dim == 2:
+            values.update(normal)
     return values
 
 
+def _normal_strain_rates_2d(mesh: _Mesh, v_half: np.ndarray, v_shift: np.ndarray,
+                            D_xy: np.ndarray) -> dict[str, np.ndarray]:
+    """The 2D cells' normal strain rates by the same half-cell differences as D_xy:
+    dv_x/dx from the two half layers, dv_y/dy from the shifted cells. Beside D_xy they give the
+    extension rate D_ext = (dv_x/dx - dv_y/dy)/2, the deviatoric magnitude
+    D_dev = sqrt(D_xy^2 + D_ext^2) (half the difference of the principal strain rates), the
+    shear fraction |D_xy| / D_dev (0 for a pure extension along x and y, 1 for a pure shear in
+    those axes); :func:`_values` adds I_dev = D_dev sqrt(m / P), the inertial number of the
+    whole deviatoric rate. The seed's I_s uses D_xy alone (Sec. 6.1.3); these show where that
+    misses the flow: on the stagnation line the flow is an extension and D_xy ~ 0."""
+    lo, hi = mesh.layer
+    dvx_dx = (v_half[1, :, 0] - v_half[0, :, 0]) / (0.5 * (hi - lo))
+    dvy_dy = np.diff(v_shift[:, 1]) / mesh.spacing
+    extension = 0.5 * (dvx_dx - dvy_dy)
+    deviatoric = np.hypot(D_xy, extension)
+    return {"dvx_dx": dvx_dx, "dvy_dy": dvy_dy, "D_ext": extension, "D_dev": deviatoric,
+            "shear_fraction": np.abs(D_xy) / deviatoric}
+
+
 #: Names of the per-cell values of :class:`LayerFields` (2D has dvy_dx, dvx_dy instead of
-#: dvr_dz, dvz_dr).
+#: dvr_dz, dvz_dr, and alone dvx_dx, dvy_dy, D_ext, D_dev, shear_fraction, I_dev).
 VALUE_NAMES = ("phi", "n", "velocity", "T_g", "T_alpha", "sigma", "P", "dvr_dz", "dvz_dr",
                "dvy_dx", "dvx_dy", "D", "mu", "mu_folded", "I", "I_T", "shear_ratio",
-               "P_over_nT", "P_alpha_over_nT_alpha")
+               "P_over_nT", "P_alpha_over_nT_alpha", "dvx_dx", "dvy_dy", "D_ext", "D_dev",
+               "shear_fraction", "I_dev")
 
 
 @dataclass(frozen=True)
@@ -254,7 +280,11 @@ class LayerFields:
         the two halves); ``I`` = |D| sqrt(m / (P d^(D-2))) (3D I, 2D I_s); ``I_T`` =
         sqrt(T_g / (P d^D)); ``shear_ratio`` = |sigma_rz / sigma_zz| (3D) or |sigma_xy /
         sigma_xx| (2D; shear over the normal stress on the target); ``P_over_nT`` =
-        P / (n T_g); ``P_alpha_over_nT_alpha`` (n, D) = sigma_aa / (n T_a) (Fig. 5.6).
+        P / (n T_g); ``P_alpha_over_nT_alpha`` (n, D) = sigma_aa / (n T_a) (Fig. 5.6);
+        2D only: ``dvx_dx``, ``dvy_dy`` the normal rates by the same half-cell scheme,
+        ``D_ext`` = (dvx_dx - dvy_dy)/2, ``D_dev`` = sqrt(D_xy^2 + D_ext^2),
+        ``shear_fraction`` = |D_xy| / D_dev and ``I_dev`` = D_dev sqrt(m / P)
+        (:func:`_normal_strain_rates_2d`).
 
     errors : standard errors of the same names over the blocks (NaN with one block).
     blocks : number of blocks (replicas x blocks after :func:`pool`).
@@ -588,21 +618,22 @@ def fit_friction_3d(layers: LayerFields | Sequence[LayerFields], *, weighted: bo
 
 
 def fit_divergence_2d(layers: LayerFields | Sequence[LayerFields], number: str = "I", *,
-                      weighted: bool = True) -> DivergenceFit:
+                      weighted: bool = True, select=None) -> DivergenceFit:
     """phi = phi_c - a I^(2/alpha), eq. (6.3) with ``number="I"`` (I_s; the seed: phi_s = 0.834,
     a_s = 3.94, alpha_s = 1.36) or eq. (6.2) with ``number="I_T"`` (phi_T = 0.858,
     a_T = 0.980, alpha_T = 1.15), by :func:`~grainflow.analysis.rheology.fit_divergence`
     (Levenberg-Marquardt, Sec. 6.1.3) over the cells of ``layers`` ((a) and (b) together, as
-    Fig. 6.5)."""
-    if number not in ("I", "I_T"):
-        raise ValueError(f"number: 'I' (I_s) or 'I_T', got {number!r}")
-    x, y, sigma = rheology_points(layers, number, "phi", weighted=weighted)
+    Fig. 6.5). ``number="I_dev"`` puts the whole deviatoric rate in place of D_xy (not the
+    seed's; see :func:`fit_choices_2d`); ``select`` picks cells as in :func:`rheology_points`."""
+    if number not in ("I", "I_T", "I_dev"):
+        raise ValueError(f"number: 'I' (I_s), 'I_T' or 'I_dev', got {number!r}")
+    x, y, sigma = rheology_points(layers, number, "phi", weighted=weighted, select=select)
     return fit_divergence(x, y, sigma)
 
 
 def fit_friction_2d(layers: LayerFields | Sequence[LayerFields], law: str = "mu_of_I", *,
-                    mu_s: float | None = 0.0, weighted: bool = True
-                    ) -> MuOfIFit | MuPowerLawFit:
+                    mu_s: float | None = 0.0, weighted: bool = True, number: str = "I",
+                    select=None) -> MuOfIFit | MuPowerLawFit:
     """mu*(I_s) over the cells of ``layers`` (Sec. 6.1.4, Fig. 6.7), mu* folded by the sign of
     D_xy (the cells y < 0 mirror those y > 0).
 
@@ -610,13 +641,81 @@ def fit_friction_2d(layers: LayerFields | Sequence[LayerFields], law: str = "mu_
     printed is a typo; the seed: mu_s = 0.0153, mu_max = 0.521, I0 = 0.082).
     ``law="power_law"``: mu* = mu_s + b I_s^beta, eq. (6.10), with ``mu_s`` fixed (the seed:
     0, giving b = 1.18, beta = 0.592) or fitted (None).
+    ``number="I_dev"`` fits against the inertial number of the whole deviatoric rate instead
+    of I_s; ``select`` picks cells as in :func:`rheology_points`.
     """
     if law not in ("mu_of_I", "power_law"):
         raise ValueError(f"law: 'mu_of_I' or 'power_law', got {law!r}")
-    x, y, sigma = rheology_points(layers, "I", "mu_folded", weighted=weighted)
+    if number not in ("I", "I_dev"):
+        raise ValueError(f"number: 'I' (I_s) or 'I_dev', got {number!r}")
+    x, y, sigma = rheology_points(layers, number, "mu_folded", weighted=weighted, select=select)
     if law == "mu_of_I":
         return fit_mu_of_I(x, y, sigma)
     return fit_mu_power_law(x, y, sigma, mu_s)
+
+
+@dataclass(frozen=True)
+class FitChoice2D:
+    """The 2D fits of eqs. (6.2), (6.3) and (2.57) under one choice of cells, weights or
+    strain rate (:func:`fit_choices_2d`); a fit that fails is None."""
+
+    label: str
+    cells: int
+    I_s: DivergenceFit | None
+    I_T: DivergenceFit | None
+    friction: MuOfIFit | None
+
+
+def _fit_or_none(fit, *args, **kwargs):
+    try:
+        return fit(*args, **kwargs)
+    except ValueError:
+        return None
+
+
+def fit_choices_2d(layers: Sequence[LayerFields], *, min_shear_fraction: float = 0.5
+                   ) -> list[FitChoice2D]:
+    """The 2D fits (phi_s, phi_T, mu(I)) under the choices the seed leaves open, to show how far
+    each moves them (Sec. 6.1.3 says only "Levenberg-Marquardt"):
+
+    1. every cell of every layer, weighted by the cells' errors (the study's table);
+    2. the same unweighted;
+    3. the layer nearest the target alone ((a), 0 < x <= 5 d), and 4. the others ((b));
+    5. only cells whose deformation is mostly shear in the x, y axes (``shear_fraction`` >=
+       ``min_shear_fraction``: on the stagnation line the flow is an extension and D_xy ~ 0);
+    6. I_dev (the whole deviatoric rate) in place of I_s, every cell.
+
+    The I_T fit does not use the strain rate: it changes only with the cells and weights.
+    ``layers``: 2D :class:`LayerFields` (layers (a) and (b), any number of phi_0 and pooled
+    replicas)."""
+    layers = list(layers)
+    if not layers or any(lay.dim != 2 for lay in layers):
+        raise ValueError("layers: give 2D LayerFields (layer_fields_2d)")
+    nearest = min(lay.layer[0] for lay in layers)
+    inner = [lay for lay in layers if lay.layer[0] == nearest]
+    outer = [lay for lay in layers if lay.layer[0] != nearest]
+
+    def sheared(lay: LayerFields) -> np.ndarray:
+        return np.asarray(lay.values["shear_fraction"]) >= min_shear_fraction
+
+    choices = (("every cell, weighted (the table)", layers, {}, "I"),
+               ("every cell, unweighted", layers, {"weighted": False}, "I"),
+               ("layer (a) alone", inner, {}, "I"),
+               ("layer (b) alone", outer, {}, "I"),
+               (f"cells with shear fraction >= {min_shear_fraction:g}", layers,
+                {"select": sheared}, "I"),
+               ("I_dev in place of I_s", layers, {}, "I_dev"))
+    rows = []
+    for label, group, options, number in choices:
+        if not group:
+            continue
+        cells = rheology_points(group, number, "phi", select=options.get("select"))[0].size
+        rows.append(FitChoice2D(
+            label, cells,
+            _fit_or_none(fit_divergence_2d, group, number, **options),
+            _fit_or_none(fit_divergence_2d, group, "I_T", **options),
+            _fit_or_none(fit_friction_2d, group, "mu_of_I", number=number, **options)))
+    return rows
 
 
 # --------------------------------------------------------------------------------------------
