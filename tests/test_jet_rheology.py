@@ -172,9 +172,34 @@ def test_normal_rates_of_a_stagnation_flow_with_shear():
             np.testing.assert_allclose(v["I_dev"], v["D_dev"] * np.sqrt(1.0 / lay.P))
         if a == b == 0:
             assert np.all(lay.I < 1e-9) and np.all(v["I_dev"] > 0)
-    # 3D layers have no such values
-    gas = _gas(np.random.default_rng(5), n=200)
-    assert "I_dev" not in jr.layer_fields_3d([gas], R_TAR).values
+
+
+@pytest.mark.parametrize("a", [0.0, 0.05])
+def test_normal_rates_of_an_axisymmetric_stagnation_flow(a):
+    """v_r = c r + a z, v_z = v0 - 2 c z (incompressible: dv_r/dr + v_r/r + dv_z/dz = 0, an
+    extension in r, a compression in z, plus a shear a), grains symmetric about the nominal
+    centres of the rings, half layers and shifted rings: dv_z/dz = -2c, v_r/r = c (+ a z/r),
+    dv_r/dr = c on every shifted difference but the first (its ring 0 < r < dr/2 stands for
+    r = 0), D_rz = a/2, and D_dev = sqrt(3 c^2 + D_rz^2) where the rates are exact."""
+    dr, c = R_TAR / 5, 0.02
+    # the last shifted ring reaches to 5.5 dr: a ring at 5.25 dr completes it
+    radii = np.r_[np.concatenate([(k + np.array([0.25, 0.75])) * dr for k in range(5)]),
+                  5.25 * dr]
+    pos = rings(radii, 5.0 * np.array([1, 3, 5, 7]) / 8)
+    r = np.hypot(pos[:, 0], pos[:, 1])
+    vel = cylindrical_velocity(pos, c * r + a * pos[:, 2], 0.0, -0.5 - 2 * c * pos[:, 2])
+    lay = jr.layer_fields_3d([make_frame(pos, vel)], R_TAR)
+    v = lay.values
+    np.testing.assert_allclose(v["dvz_dz"], -2 * c, atol=1e-12)
+    np.testing.assert_allclose(v["dvr_dr"][1:], c, atol=1e-12)
+    np.testing.assert_allclose(v["vr_over_r"], c + a * 2.5 / lay.centres, atol=1e-12)
+    np.testing.assert_allclose(lay.D, a / 2, atol=1e-12)
+    if a == 0:
+        np.testing.assert_allclose(v["D_dev"][1:], np.sqrt(3) * c, atol=1e-12)
+        np.testing.assert_allclose(v["shear_fraction"], 0.0, atol=1e-12)
+    else:
+        assert np.all(v["D_dev"] >= np.abs(lay.D)) and np.all(v["shear_fraction"] <= 1)
+    np.testing.assert_allclose(v["I_dev"], v["D_dev"] * np.sqrt(1.0 / lay.P))
 
 
 # --- the target's wall particles -------------------------------------------------------------
@@ -376,6 +401,10 @@ def test_fit_choices_2d_tell_the_layers_weights_and_strain_rates_apart():
         jr.fit_choices_2d([_table(3, I=I, phi=phi_a)])
     with pytest.raises(ValueError, match="number"):
         jr.fit_friction_2d(a, number="I_T")
+    with pytest.raises(ValueError, match="layers"):
+        jr.fit_choices_3d([a])
+    with pytest.raises(ValueError, match="number"):
+        jr.fit_friction_3d(_table(3, I=I, mu_folded=mu), number="I_T")
 
 
 def test_points_select_cells_and_drop_weights_when_errors_are_missing():

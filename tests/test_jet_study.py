@@ -74,6 +74,26 @@ def test_report_lists_the_2d_fits_under_each_choice() -> None:
     assert all(row.split("|")[3].strip() == "-" for row in rows[2:])
 
 
+def test_report_lists_the_3d_slope_under_each_choice() -> None:
+    """mu* = 0.24 I against I and 0.06 I_dev (I_dev = 4 I): the rows give both slopes, the
+    median shear fraction, and the inner-ring cut drops the ring at r/R_tar = 0.1."""
+    from grainflow.analysis.jet.rheology import LayerFields
+
+    I = np.array([0.01, 0.02, 0.04, 0.07, 0.1])  # noqa: E741
+    values = {"I": I, "I_dev": 4 * I, "mu_folded": 0.24 * I,
+              "shear_fraction": np.array([0.1, 0.2, 0.3, 0.4, 0.5])}
+    layer = LayerFields(dim=3, target_radius=11.0, layer=(0.0, 5.0),
+                        edges=np.linspace(0.0, 11.0, 6), values=values,
+                        errors={k: np.full(5, 0.001) for k in values})
+    lines = jet_study._fit_choices_3d_lines([layer], "frictional")
+    assert "seed: 0.24" in lines[1] and "shear fraction |D_rz| / D_dev is 0.30" in lines[1]
+    rows = {line.split("|")[1].strip(): line.split("|")[2:4] for line in lines
+            if line.startswith("| ") and "---" not in line}
+    assert float(rows["every ring, weighted (the table)"][1]) == pytest.approx(0.24)
+    assert float(rows["I_dev in place of I"][1]) == pytest.approx(0.06)
+    assert int(rows["rings r/R_tar >= 0.2"][0]) == 4
+
+
 @pytest.fixture(scope="module")
 def small_jet_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from grainflow.runner import run_config

@@ -272,7 +272,9 @@ def plot_divergence_2d(layers: LayerFields | Sequence[LayerFields], path: str | 
                        fits: Mapping[str, DivergenceFit] | None = None,
                        labels: Sequence[str] | None = None) -> Path:
     """phi against I_T (left, eq. 6.2) and I_s (right, eq. 6.3) on log axes with the fits
-    ``fits["I_T"]`` and ``fits["I"]`` (Fig. 6.5)."""
+    ``fits["I_T"]`` and ``fits["I"]`` (Fig. 6.5). On the I_s panel a ring marks the cells
+    that flow mostly by extension (shear fraction |D_xy| / D_dev < 1/2: D_xy is not their
+    rate of deformation)."""
     items = _layers(layers)
     fits = {} if fits is None else dict(fits)
     for key, fit in fits.items():
@@ -285,6 +287,8 @@ def plot_divergence_2d(layers: LayerFields | Sequence[LayerFields], path: str | 
     axes = fig.subplots(1, 2)
     for ax, key, symbol in ((axes[0], "I_T", "I_T"), (axes[1], "I", "I_s")):
         _scatter(ax, items, names, key, "phi")
+        if key == "I":
+            _mark_extension(ax, items)
         fit = fits.get(key)
         if fit is not None:
             curve = _positive_range([lay.value(key) for lay in items], True)
@@ -301,6 +305,21 @@ def plot_divergence_2d(layers: LayerFields | Sequence[LayerFields], path: str | 
         ax.set_ylabel(r"$\phi$")
         ax.legend(fontsize=7, frameon=False, loc="lower left")
     return save_figure(fig, path)
+
+
+def _mark_extension(ax, items: Sequence[LayerFields]) -> None:
+    """Rings around the cells whose shear fraction is below 1/2 (layers that have one)."""
+    x, y = [], []
+    for lay in items:
+        if "shear_fraction" not in lay.values:
+            continue
+        I, phi = np.asarray(lay.value("I")), np.asarray(lay.value("phi"))  # noqa: E741
+        low = (np.asarray(lay.values["shear_fraction"]) < 0.5) & (I > 0) & np.isfinite(phi)
+        x.append(I[low])
+        y.append(phi[low])
+    if x and np.concatenate(x).size:
+        ax.plot(np.concatenate(x), np.concatenate(y), "o", mfc="none", mec="k", ms=10,
+                mew=0.8, label="shear fraction < 1/2 (extension)")
 
 
 def plot_friction_2d(layers: LayerFields | Sequence[LayerFields], path: str | Path, *,

@@ -257,6 +257,25 @@ def _layers_2d(points: SweepPoints, window: tuple[float, float]) -> dict[float, 
             for phi, reps in sorted(groups.items())}
 
 
+def _fit_choices_3d_lines(layers: list[Any], label: str) -> list[str]:
+    """Report lines: the 3D slope a of mu* = a I under each choice the seed leaves open
+    (:func:`grainflow.analysis.jet.rheology.fit_choices_3d`), with the median shear fraction
+    |D_rz| / D_dev of the rings."""
+    from grainflow.analysis.jet.rheology import fit_choices_3d
+
+    fractions = np.concatenate([np.asarray(lay.values["shear_fraction"]) for lay in layers])
+    median = float(np.nanmedian(fractions)) if np.isfinite(fractions).any() else float("nan")
+    lines = ["", f"3D ({label}) a of mu* = a I under the choices the seed leaves open (seed: "
+             f"{SEED[f'a ({label})'][0]:g}); the rings' median shear fraction |D_rz| / D_dev "
+             f"is {median:.2f} (next to the target the flow is mostly a compression along z "
+             "and an extension in r):", "", "| rings, weights, strain rate | rings | a | ± |",
+             "|---|---|---|---|"]
+    for name, cells, fit in fit_choices_3d(layers):
+        lines.append(f"| {name} | {cells} | " + (" - | - |" if fit is None else
+                                                 f"{fit.a:.3g} | {fit.a_err:.2g} |"))
+    return lines + [""]
+
+
 def _fit_choices_lines(layers: list[Any]) -> list[str]:
     """Report lines: the 2D fits under each choice the seed leaves open
     (:func:`grainflow.analysis.jet.rheology.fit_choices_2d`)."""
@@ -402,6 +421,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         if dense is not None:
             plot_stress_profiles(dense, out / f"stress_3d_{label}.png")
             lines.append(f"![stress 3D {label}](stress_3d_{label}.png)")
+        if mine:
+            lines += _fit_choices_3d_lines(mine, label)
     for label, items in checks:
         plot_pressure_ratio(items, out / f"pressure_3d_{label}.png", per_direction=True)
         lines.append(f"![P/nT 3D {label}](pressure_3d_{label}.png)")

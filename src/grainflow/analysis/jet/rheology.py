@@ -59,8 +59,8 @@ from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, M
 from grainflow.frame import Frame
 
 __all__ = ["GRAIN_TYPES", "TARGET_TYPE", "FitChoice2D", "KineticTheoryCheck", "LayerFields",
-           "fit_choices_2d", "fit_divergence_2d", "fit_friction_2d", "fit_friction_3d",
-           "kinetic_theory_check",
+           "fit_choices_2d", "fit_choices_3d", "fit_divergence_2d", "fit_friction_2d",
+           "fit_friction_3d", "kinetic_theory_check",
            "VALUE_NAMES", "layer_flatness", "layer_fluctuations", "layer_fields_2d",
            "layer_fields_3d", "pool", "rheology_points"]
 
@@ -204,9 +204,9 @@ def _values(mesh: _Mesh, main: CGFields, half: CGFields, shifted: CGFields, diam
         grad_axis = np.diff(v_shift[:, axial]) / mesh.spacing
         D = 0.5 * (grad_wall + grad_axis)
         diag = np.diagonal(sigma, axis1=-2, axis2=-1)
-        if dim == 2:
-            normal = _normal_strain_rates_2d(mesh, v_half, v_shift, D)
-            normal["I_dev"] = inertial_number(normal["D_dev"], P, diameter, mass, dim)
+        normal = (_normal_strain_rates_2d(mesh, v_half, v_shift, D) if dim == 2
+                  else _normal_strain_rates_3d(mesh, main.velocity, v_half, v_shift, D))
+        normal["I_dev"] = inertial_number(normal["D_dev"], P, diameter, mass, dim)
         values = {
             "phi": main.packing_fraction,
             "n": n,
@@ -226,8 +226,7 @@ def _values(mesh: _Mesh, main: CGFields, half: CGFields, shifted: CGFields, diam
             "P_over_nT": P / (n * T_g),
             "P_alpha_over_nT_alpha": diag / (n[:, None] * T_alpha),
         }
-        if dim == 2:
-            values.update(normal)
+        values.update(normal)
     return values
 
 
@@ -250,12 +249,33 @@ def _normal_strain_rates_2d(mesh: _Mesh, v_half: np.ndarray, v_shift: np.ndarray
             "shear_fraction": np.abs(D_xy) / deviatoric}
 
 
+def _normal_strain_rates_3d(mesh: _Mesh, velocity: np.ndarray, v_half: np.ndarray,
+                            v_shift: np.ndarray, D_rz: np.ndarray) -> dict[str, np.ndarray]:
+    """The 3D rings' normal strain rates by the half-cell differences of D_rz: dv_z/dz from
+    the two half layers, dv_r/dr from the shifted rings (the first, 0 < r < dr/2, standing for
+    r = 0, as for dv_z/dr), and the hoop rate v_r/r at the ring's centre. With them the
+    deviatoric magnitude D_dev = sqrt(D':D'/2) = sqrt((D'_rr^2 + D'_tt^2 + D'_zz^2)/2 + D_rz^2)
+    (D' = D - tr(D)/3; for the 2D cells the same definition gives sqrt(D_xy^2 + D_ext^2)) and
+    the shear fraction |D_rz| / D_dev. Next to the target the flow is mostly a compression
+    along z and an extension in r: the seed's D_rz (Sec. 5.3.3) is a part of the rate."""
+    lo, hi = mesh.layer
+    centres = 0.5 * (mesh.edges[1:] + mesh.edges[:-1])
+    dvz_dz = (v_half[:, 1, 2] - v_half[:, 0, 2]) / (0.5 * (hi - lo))
+    dvr_dr = np.diff(v_shift[:, 0]) / mesh.spacing
+    hoop = velocity[:, 0] / centres
+    trace = (dvr_dr + hoop + dvz_dz) / 3.0
+    deviatoric = np.sqrt(0.5 * ((dvr_dr - trace) ** 2 + (hoop - trace) ** 2
+                                + (dvz_dz - trace) ** 2) + D_rz**2)
+    return {"dvr_dr": dvr_dr, "vr_over_r": hoop, "dvz_dz": dvz_dz, "D_dev": deviatoric,
+            "shear_fraction": np.abs(D_rz) / deviatoric}
+
+
 #: Names of the per-cell values of :class:`LayerFields` (2D has dvy_dx, dvx_dy instead of
-#: dvr_dz, dvz_dr, and alone dvx_dx, dvy_dy, D_ext, D_dev, shear_fraction, I_dev).
+#: dvr_dz, dvz_dr, and dvx_dx, dvy_dy, D_ext for 3D's dvr_dr, vr_over_r, dvz_dz).
 VALUE_NAMES = ("phi", "n", "velocity", "T_g", "T_alpha", "sigma", "P", "dvr_dz", "dvz_dr",
                "dvy_dx", "dvx_dy", "D", "mu", "mu_folded", "I", "I_T", "shear_ratio",
-               "P_over_nT", "P_alpha_over_nT_alpha", "dvx_dx", "dvy_dy", "D_ext", "D_dev",
-               "shear_fraction", "I_dev")
+               "P_over_nT", "P_alpha_over_nT_alpha", "dvr_dr", "vr_over_r", "dvz_dz",
+               "dvx_dx", "dvy_dy", "D_ext", "D_dev", "shear_fraction", "I_dev")
 
 
 @dataclass(frozen=True)
@@ -281,10 +301,11 @@ class LayerFields:
         sqrt(T_g / (P d^D)); ``shear_ratio`` = |sigma_rz / sigma_zz| (3D) or |sigma_xy /
         sigma_xx| (2D; shear over the normal stress on the target); ``P_over_nT`` =
         P / (n T_g); ``P_alpha_over_nT_alpha`` (n, D) = sigma_aa / (n T_a) (Fig. 5.6);
-        2D only: ``dvx_dx``, ``dvy_dy`` the normal rates by the same half-cell scheme,
-        ``D_ext`` = (dvx_dx - dvy_dy)/2, ``D_dev`` = sqrt(D_xy^2 + D_ext^2),
-        ``shear_fraction`` = |D_xy| / D_dev and ``I_dev`` = D_dev sqrt(m / P)
-        (:func:`_normal_strain_rates_2d`).
+        the normal rates by the same half-cell scheme, 3D ``dvr_dr``, ``vr_over_r``,
+        ``dvz_dz``, 2D ``dvx_dx``, ``dvy_dy`` and ``D_ext`` = (dvx_dx - dvy_dy)/2;
+        ``D_dev`` = sqrt(D':D'/2) the deviatoric magnitude, ``shear_fraction`` = |D| / D_dev
+        and ``I_dev`` = D_dev sqrt(m / (P d^(D-2))) (:func:`_normal_strain_rates_3d`,
+        :func:`_normal_strain_rates_2d`).
 
     errors : standard errors of the same names over the blocks (NaN with one block).
     blocks : number of blocks (replicas x blocks after :func:`pool`).
@@ -606,15 +627,49 @@ def _radial_range(r_range):
 
 
 def fit_friction_3d(layers: LayerFields | Sequence[LayerFields], *, weighted: bool = True,
-                    r_range: tuple[float, float] | None = None) -> MuLinearFit:
+                    r_range: tuple[float, float] | None = None,
+                    number: str = "I") -> MuLinearFit:
     """mu* = a I through the origin (zero yield stress, Sec. 5.3.3, Fig. 5.7; the seed:
     a = 0.240 frictional, 0.223 frictionless), by
     :func:`~grainflow.analysis.rheology.fit_mu_linear` on the cells' (I, mu*) with
     mu* folded by the sign of D_rz. ``r_range``: (lo, hi) of r / R_tar to keep (the seed notes
-    the cell at r / R_tar = 0.1 deviates, an effect of the axis)."""
-    x, y, sigma = rheology_points(layers, "I", "mu_folded", weighted=weighted,
+    the cell at r / R_tar = 0.1 deviates, an effect of the axis). ``number="I_dev"`` fits
+    against the inertial number of the whole deviatoric rate instead (not the seed's; see
+    :func:`fit_choices_3d`)."""
+    if number not in ("I", "I_dev"):
+        raise ValueError(f"number: 'I' or 'I_dev', got {number!r}")
+    x, y, sigma = rheology_points(layers, number, "mu_folded", weighted=weighted,
                                   select=_radial_range(r_range))
     return fit_mu_linear(x, y, sigma)
+
+
+def _fit_or_none(fit, *args, **kwargs):
+    try:
+        return fit(*args, **kwargs)
+    except ValueError:
+        return None
+
+
+def fit_choices_3d(layers: Sequence[LayerFields]) -> list[tuple[str, int, MuLinearFit | None]]:
+    """(label, rings, fit) of mu* = a I (Sec. 5.3.3) under the choices the seed leaves open:
+    every ring weighted by its errors (the study's table), unweighted, the rings
+    r / R_tar >= 0.2 (the seed notes the centre ring deviates), and I_dev, the inertial
+    number of the whole deviatoric rate, in place of I (next to the target the flow is
+    mostly a compression along z and an extension in r; D_rz is a part of it). A fit that
+    cannot be made is None."""
+    layers = list(layers)
+    if not layers or any(lay.dim != 3 for lay in layers):
+        raise ValueError("layers: give 3D LayerFields (layer_fields_3d)")
+    choices = (("every ring, weighted (the table)", {}),
+               ("every ring, unweighted", {"weighted": False}),
+               ("rings r/R_tar >= 0.2", {"r_range": (0.2, np.inf)}),
+               ("I_dev in place of I", {"number": "I_dev"}))
+    rows = []
+    for label, options in choices:
+        cells = rheology_points(layers, options.get("number", "I"), "mu_folded",
+                                select=_radial_range(options.get("r_range")))[0].size
+        rows.append((label, cells, _fit_or_none(fit_friction_3d, layers, **options)))
+    return rows
 
 
 def fit_divergence_2d(layers: LayerFields | Sequence[LayerFields], number: str = "I", *,
@@ -664,13 +719,6 @@ class FitChoice2D:
     I_s: DivergenceFit | None
     I_T: DivergenceFit | None
     friction: MuOfIFit | None
-
-
-def _fit_or_none(fit, *args, **kwargs):
-    try:
-        return fit(*args, **kwargs)
-    except ValueError:
-        return None
 
 
 def fit_choices_2d(layers: Sequence[LayerFields], *, min_shear_fraction: float = 0.5
