@@ -364,3 +364,20 @@ def test_plots_write_png_files(tmp_path):
     assert _is_png(scaled)
     with pytest.raises(ValueError, match="quantity"):
         plot_velocity_profiles(profiles, widths, tmp_path / "x.png", quantity="speed")
+
+
+def test_sigmoid_between_measured_limits():
+    """limits = (beta_0, beta_inf) replace d - 1/2 and d - 3/2: the midpoint is halfway between
+    them at lambda_c, and a fit recovers lambda_c where eq. (14)'s fixed limits put it
+    elsewhere (here: later, as the 2D hopper's 1.76 / 0.62 limits do)."""
+    lam = np.logspace(-3, 1, 13)
+    assert np.allclose(beta_sigmoid(np.array([1e-14, 0.05, 1e14]), 0.05, 1.0, 2, (1.8, 0.6)),
+                       [1.8, 1.2, 0.6])
+    beta = beta_sigmoid(lam, 0.05, 0.8, 2, (1.8, 0.6))
+    fit = fit_beta_sigmoid(lam, beta, dim=2, limits=(1.8, 0.6))
+    assert fit.lambda_c == pytest.approx(0.05, rel=1e-6) and fit.levels == (1.8, 1.2, 0.6)
+    np.testing.assert_allclose(fit.predict(lam), beta, atol=1e-9)
+    fixed = fit_beta_sigmoid(lam, beta, dim=2)
+    assert fixed.lambda_c > 0.08 and fixed.levels == (1.5, 1.0, 0.5)
+    with pytest.raises(ValueError, match="limits"):
+        fit_beta_sigmoid(lam, beta, dim=2, limits=(1.0, 1.0))

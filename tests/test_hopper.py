@@ -591,10 +591,46 @@ def test_realizations_give_lambda_c_each_and_pooled() -> None:
     assert pooled.lambda_c_err > 0.1 * pooled.lambda_c  # the spread, not the fits' 1 %
     table = "\n".join(_realization_table(realizations, replicates))
     assert "| λ | seed 0 | seed 1 | mean ± s.d. |" in table
-    assert "| λ_c (free betas) | 0.1 ± " in table
+    assert "| λ_c (the free betas) | 0.1 ± " in table
     seed_rows = "\n".join(_seed_table(AUTHORS_REDUCED, fits, {"q2d": {}, "q3d": {}, **{
         t: {} for t in AUTHORS_REDUCED.theta_w}}, replicates))
-    assert "| 2D λ_c, 2 realizations pooled (free betas) | 0.05 | " in seed_rows
+    assert "| 2D λ_c, 2 realizations pooled (the free betas) | 0.05 | " in seed_rows
+    # limits at eq. (14)'s own 3/2 and 1/2: the measured-limits sigmoid is the same fit
+    assert replicates[0]["measured"].lambda_c == pytest.approx(0.1, rel=0.02)
+
+
+def test_lambda_c_between_the_measured_limits() -> None:
+    """A realization whose betas run from 1.8 (lambda = 0) to 0.6 (lambda = inf) with their
+    midpoint 1.2 at lambda = 0.05: the sigmoid between the measured limits gives 0.05 back,
+    eq. (14) with its fixed 3/2 and 1/2 puts lambda_c where beta crosses 1, later; the
+    report's seed table carries both rows."""
+    from grainflow.analysis.hopper import beta_sigmoid
+    from grainflow.studies.hopper_authors import (AUTHORS_REDUCED, _seed_table, _sigmoids,
+                                                  three_fits, Series)
+
+    widths = [3.0, 4.6, 6.2, 7.8, 9.4, 10.6]
+    lams = [0.0, 0.005, 0.02, 0.05, 0.181, 1.0, math.inf]
+
+    def beta(lam: float) -> float:
+        if lam in (0.0, math.inf):
+            return 1.8 if lam == 0.0 else 0.6
+        return float(beta_sigmoid(np.array([lam]), 0.05, 0.8, 2, (1.8, 0.6))[0])
+
+    def series(b: float) -> Series:
+        q = [0.5 * (w - 1.0) ** b for w in widths]
+        return Series(w=widths, Q=q, Q_err=[0.01 * x for x in q])
+
+    fits = {(lam, None, None): three_fits(series(beta(lam)), 2, lam) for lam in lams}
+    sig = _sigmoids([(key[0], f) for key, f in fits.items()], 2)
+    assert sig["measured"].lambda_c == pytest.approx(0.05, rel=0.02)
+    assert sig["measured"].levels == pytest.approx((1.8, 1.2, 0.6), abs=0.01)
+    assert sig["free"].lambda_c > 1.5 * 0.05
+    rows = "\n".join(_seed_table(AUTHORS_REDUCED, {"q2d": fits}, {"q2d": sig, "q3d": {}, **{
+        t: {} for t in AUTHORS_REDUCED.theta_w}}, {}))
+    assert "| 2D λ_c from the free betas, between their measured limits | 0.05 | 0.05" in rows
+    # no limits measured (lambda = 0 or inf missing): no such fit
+    assert "measured" not in _sigmoids([(key[0], f) for key, f in fits.items()
+                                        if key[0] != math.inf], 2)
 
 
 def test_height_table_gives_the_ratio_at_each_common_width() -> None:

@@ -631,7 +631,8 @@ def fit_beverloo(
 # --------------------------------------------------------------------------------------------
 
 
-def beta_sigmoid(lam: ArrayLike, lambda_c: float, b: float, dim: int) -> np.ndarray:
+def beta_sigmoid(lam: ArrayLike, lambda_c: float, b: float, dim: int,
+                 limits: tuple[float, float] | None = None) -> np.ndarray:
     """Beverloo exponent versus lambda = zeta/mu, seed 003 eq. (14)::
 
         beta(lambda) = d - 1 - (1/2) tanh[ (1/b) log10(lambda / lambda_c) ].
@@ -642,14 +643,22 @@ def beta_sigmoid(lam: ArrayLike, lambda_c: float, b: float, dim: int) -> np.ndar
     "beta = (1/2)(d - tanh[log10(lambda/lambda_c)^(1/b)])", whose limits are right only in 2D);
     this form gives the limits and midpoint the seed states in both 2D and 3D (PARAMETERS.md).
 
+    ``limits = (beta_0, beta_inf)`` puts other limits in place of d - 1/2 and d - 3/2 (the
+    exponents a model measures at lambda = 0 and infinity):
+    beta = (beta_0 + beta_inf)/2 - (beta_0 - beta_inf)/2 tanh[...], so that lambda_c stays the
+    midpoint of the transition between the two regimes the model has.
+
     Parameters
     ----------
     lam : (M,) lambda values, > 0.
     lambda_c : midpoint, > 0.
     b : stretching parameter, > 0.
     dim : spatial dimension d (2 or 3).
+    limits : (beta at lambda -> 0, beta at lambda -> infinity); None: the seed's.
     """
-    return dim - 1.0 - 0.5 * np.tanh(np.log10(np.asarray(lam, dtype=float) / lambda_c) / b)
+    beta_0, beta_inf = (dim - 0.5, dim - 1.5) if limits is None else limits
+    shape = np.tanh(np.log10(np.asarray(lam, dtype=float) / lambda_c) / b)
+    return 0.5 * (beta_0 + beta_inf) - 0.5 * (beta_0 - beta_inf) * shape
 
 
 @dataclass(frozen=True)
@@ -665,6 +674,7 @@ class SigmoidFit:
     covariance : (2, 2) covariance of (log10 lambda_c, b).
     chi2, dof : sum of squared (weighted) residuals and M - 2.
     lam, beta, beta_err : (M,) the data (beta_err NaN when not given).
+    limits : the sigmoid's (beta_0, beta_inf); None: eq. (14)'s d - 1/2 and d - 3/2.
     """
 
     lambda_c: float
@@ -680,10 +690,18 @@ class SigmoidFit:
     lam: np.ndarray
     beta: np.ndarray
     beta_err: np.ndarray
+    limits: tuple[float, float] | None = None
 
     def predict(self, lam: ArrayLike) -> np.ndarray:
         """beta(lambda) from the fitted sigmoid."""
-        return beta_sigmoid(lam, self.lambda_c, self.b, self.dim)
+        return beta_sigmoid(lam, self.lambda_c, self.b, self.dim, self.limits)
+
+    @property
+    def levels(self) -> tuple[float, float, float]:
+        """(beta_0, midpoint, beta_inf) of the sigmoid."""
+        beta_0, beta_inf = ((self.dim - 0.5, self.dim - 1.5) if self.limits is None
+                            else self.limits)
+        return beta_0, 0.5 * (beta_0 + beta_inf), beta_inf
 
 
 def fit_beta_sigmoid(
@@ -692,6 +710,7 @@ def fit_beta_sigmoid(
     *,
     dim: int,
     beta_err: ArrayLike | None = None,
+    limits: tuple[float, float] | None = None,
 ) -> SigmoidFit:
     """Fit lambda_c and b of seed 003 eq. (14) (:func:`beta_sigmoid`) to beta(lambda) (Fig. 4).
 
@@ -707,8 +726,14 @@ def fit_beta_sigmoid(
     beta : (M,) fitted Beverloo exponents.
     dim : spatial dimension d (2 or 3).
     beta_err : (M,) standard errors of beta, > 0.
+    limits : (beta_0, beta_inf) in place of eq. (14)'s d - 1/2 and d - 3/2, e.g. the
+        exponents measured at lambda = 0 and infinity; they must differ.
     """
     lam_arr, beta_arr = _as_1d("lam", lam), _as_1d("beta", beta)
+    if limits is not None:
+        limits = (float(limits[0]), float(limits[1]))
+        if not (np.all(np.isfinite(limits)) and limits[0] != limits[1]):
+            raise ValueError(f"limits: need two different finite exponents, got {limits}")
     if beta_arr.shape != lam_arr.shape:
         raise ValueError(f"beta: expected one exponent per lambda {lam_arr.shape}")
     if dim not in (2, 3):
@@ -725,7 +750,7 @@ def fit_beta_sigmoid(
             raise ValueError("beta_err: need one positive standard error per exponent")
 
     def model(lam_: np.ndarray, log_lc: float, b: float) -> np.ndarray:
-        return beta_sigmoid(lam_, 10.0**log_lc, b, dim)
+        return beta_sigmoid(lam_, 10.0**log_lc, b, dim, limits)
 
     w2 = 1.0 / err**2 if err is not None else np.ones_like(beta_arr)
     log_lam = np.log10(lam_arr)
@@ -757,4 +782,5 @@ def fit_beta_sigmoid(
         lam=_frozen(lam_arr),
         beta=_frozen(beta_arr),
         beta_err=_frozen(err if err is not None else np.full_like(beta_arr, np.nan)),
+        limits=limits,
     )

@@ -112,8 +112,8 @@ def plot_beta_sigmoid(
 ) -> Path:
     """beta against lambda = zeta/mu on a log axis with the eq. (14) sigmoid (seed Fig. 4).
 
-    Dashed lines mark the limits d - 1/2 and d - 3/2, a dotted line the midpoint d - 1, and
-    short ticks the fitted lambda_c.
+    Dashed lines mark the limits d - 1/2 and d - 3/2 (or the fit's own ``limits``), a dotted
+    line the midpoint d - 1 (halfway between them), and short ticks the fitted lambda_c.
     """
     fit_list = _as_list(fits)
     names = _labels(labels, len(fit_list), "series {}")
@@ -131,8 +131,8 @@ def plot_beta_sigmoid(
                     mfc="none", label=f"{name}: {label}" if name else label)
         ax.plot(lam_curve, fit.predict(lam_curve), "-", color=colour, lw=1.2)
         ax.axvline(fit.lambda_c, ymin=0.0, ymax=0.06, color=colour, lw=1.5)
-    for d in sorted({f.dim for f in fit_list}):
-        for level, style in ((d - 0.5, "--"), (d - 1.0, ":"), (d - 1.5, "--")):
+    for levels in sorted({f.levels for f in fit_list}):
+        for level, style in zip(levels, ("--", ":", "--")):
             ax.axhline(level, ls=style, color="0.5", lw=0.8)
     ax.set_xscale("log")
     ax.set_xlabel(r"$\lambda = \zeta/\mu$")

@@ -120,6 +120,8 @@ PROBES: dict[str, dict[str, Any]] = {
 def probe_dim(name: str) -> int:
     """The dimension of a probe (2 unless it says ``"dim"``)."""
     return int(PROBES[name].get("dim", 2))
+
+
 #: What each probe changes, for the report.
 PROBE_LABELS = {"q2d": "the authors' conventions (dt = t_c/20)",
                 "friction_dt": "the authors' dt = 0.005 code = 2.6e-4 t0",
@@ -249,24 +251,40 @@ def three_fits(series: Series, dim: int, lam: float) -> dict[str, Any]:
     return out
 
 
+#: The lambda_c fits of a beta(lambda) series (:func:`_sigmoids`) and their report labels:
+#: eq. (14) through the free and through the bounded betas (never rescaled), and eq. (14)
+#: through the free betas with its limits d - 1/2, d - 3/2 replaced by the free betas the same
+#: series measures at lambda = 0 and infinity (the midpoint of the model's own transition).
+SIGMOID_KINDS = {"free": "the free betas", "bounded": "the bounded betas",
+                 "measured": "the free betas, between their measured limits"}
+
+
 def _sigmoids(fits: list[tuple[float, dict[str, Any]]], dim: int, *,
               weighted: bool = True) -> dict[str, Any]:
-    """lambda_c from the free betas and from the bounded betas (never rescaled), over
-    (lambda, three fits) pairs; a lambda may appear once per realization. ``weighted``: each
-    beta weighs by its fit's error (at least 0.02); otherwise all weigh alike and the
-    covariance is scaled by the scatter about the sigmoid, which then holds the spread
-    between realizations."""
+    """lambda_c of each of :data:`SIGMOID_KINDS` over (lambda, three fits) pairs; a lambda may
+    appear once per realization (the measured limits are then the realizations' mean free
+    betas at lambda = 0 and infinity). ``weighted``: each beta weighs by its fit's error (at
+    least 0.02); otherwise all weigh alike and the covariance is scaled by the scatter about
+    the sigmoid, which then holds the spread between realizations."""
     from grainflow.analysis.hopper import fit_beta_sigmoid
 
+    ends = {end: [f["free"].beta for lam, f in fits if lam == end and "free" in f]
+            for end in (0.0, math.inf)}
+    measured = (float(np.mean(ends[0.0])), float(np.mean(ends[math.inf]))) \
+        if ends[0.0] and ends[math.inf] else None
     out = {}
-    for kind in ("free", "bounded"):
-        pts = [(lam, f[kind]) for lam, f in sorted(fits, key=lambda item: item[0])
-               if 0 < lam < math.inf and kind in f]
+    for kind in SIGMOID_KINDS:
+        source = "free" if kind == "measured" else kind
+        if kind == "measured" and measured is None:
+            continue
+        pts = [(lam, f[source]) for lam, f in sorted(fits, key=lambda item: item[0])
+               if 0 < lam < math.inf and source in f]
         if len(pts) >= 3:
             try:
                 out[kind] = fit_beta_sigmoid(
                     [lam for lam, _ in pts], [f.beta for _, f in pts], dim=dim,
-                    beta_err=[max(f.beta_err, 0.02) for _, f in pts] if weighted else None)
+                    beta_err=[max(f.beta_err, 0.02) for _, f in pts] if weighted else None,
+                    limits=measured if kind == "measured" else None)
             except (ValueError, RuntimeError):
                 pass
     return out
@@ -402,20 +420,20 @@ def _seed_table(plan: AuthorsPlan, fits: dict, sigmoids: dict[Any, dict[str, Any
             row(f"hard C, λ→{_arrow(lam)}, E_sp = {E:g}", hard_name(E), lam, "C",
                 _seed_c(SEED[("C", 2, lam)]))
     for dim, name, seed in ((2, "q2d", 0.05), (3, "q3d", 0.07)):
-        for kind in ("free", "bounded"):
+        for kind, label in SIGMOID_KINDS.items():
             s = sigmoids[name].get(kind)
-            lines.append(f"| {dim}D λ_c from the {kind} betas | {seed} | "
+            lines.append(f"| {dim}D λ_c from {label} | {seed} | "
                          f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
         if dim == 2 and len(replicates) > 2:
-            for kind in ("free", "bounded"):
+            for kind, label in SIGMOID_KINDS.items():
                 s = replicates[POOLED].get(kind)
-                lines.append(f"| 2D λ_c, {len(replicates) - 1} realizations pooled ({kind} "
-                             f"betas) | {seed} | "
+                lines.append(f"| 2D λ_c, {len(replicates) - 1} realizations pooled ({label}) "
+                             f"| {seed} | "
                              f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
     for theta in plan.theta_w:
-        for kind in ("free", "bounded"):
+        for kind, label in SIGMOID_KINDS.items():
             s = sigmoids[theta].get(kind)
-            lines.append(f"| λ_c at θ_w = {theta:g}° ({kind} betas) | falls to ~6e-3 (OCR "
+            lines.append(f"| λ_c at θ_w = {theta:g}° ({label}) | falls to ~6e-3 (OCR "
                          f"'6x10^?') | {fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} "
                          "| | |")
     return lines
@@ -526,7 +544,7 @@ def _realization_table(realizations: dict[tuple[float, int], Any],
                   if len(values) >= 2 else "")
         lines.append(f"| {lam:g} | " + " | ".join(fit_cell(f, "beta") for f in row)
                      + f" | {spread} |")
-    for kind in ("free", "bounded"):
+    for kind, label in SIGMOID_KINDS.items():
         cells = []
         for s in seeds:
             fit = replicates.get(s, {}).get(kind)
@@ -534,12 +552,12 @@ def _realization_table(realizations: dict[tuple[float, int], Any],
         per_seed = [replicates[s][kind].lambda_c for s in seeds if kind in replicates.get(s, {})]
         spread = (fmt(float(np.mean(per_seed)), float(np.std(per_seed, ddof=1)))
                   if len(per_seed) >= 2 else "")
-        lines.append(f"| λ_c ({kind} betas) | " + " | ".join(cells) + f" | {spread} |")
+        lines.append(f"| λ_c ({label}) | " + " | ".join(cells) + f" | {spread} |")
     pooled = replicates.get(POOLED, {})
     lines += ["", "Pooled (one unweighted sigmoid through every realization's betas, its error "
               "from their scatter): " + "; ".join(
-                  f"λ_c = {fmt(pooled[k].lambda_c, pooled[k].lambda_c_err)} ({k} betas)"
-                  for k in ("free", "bounded") if k in pooled) + "."]
+                  f"λ_c = {fmt(pooled[k].lambda_c, pooled[k].lambda_c_err)} ({label})"
+                  for k, label in SIGMOID_KINDS.items() if k in pooled) + "."]
     return lines
 
 
