@@ -631,6 +631,11 @@ def fit_beverloo(
 # --------------------------------------------------------------------------------------------
 
 
+def _sigmoid_limits(dim: int, limits: tuple[float, float] | None) -> tuple[float, float]:
+    """(beta_0, beta_inf): eq. (14)'s d - 1/2 and d - 3/2 unless ``limits`` are given."""
+    return (dim - 0.5, dim - 1.5) if limits is None else limits
+
+
 def beta_sigmoid(lam: ArrayLike, lambda_c: float, b: float, dim: int,
                  limits: tuple[float, float] | None = None) -> np.ndarray:
     """Beverloo exponent versus lambda = zeta/mu, seed 003 eq. (14)::
@@ -656,7 +661,7 @@ def beta_sigmoid(lam: ArrayLike, lambda_c: float, b: float, dim: int,
     dim : spatial dimension d (2 or 3).
     limits : (beta at lambda -> 0, beta at lambda -> infinity); None: the seed's.
     """
-    beta_0, beta_inf = (dim - 0.5, dim - 1.5) if limits is None else limits
+    beta_0, beta_inf = _sigmoid_limits(dim, limits)
     shape = np.tanh(np.log10(np.asarray(lam, dtype=float) / lambda_c) / b)
     return 0.5 * (beta_0 + beta_inf) - 0.5 * (beta_0 - beta_inf) * shape
 
@@ -699,8 +704,7 @@ class SigmoidFit:
     @property
     def levels(self) -> tuple[float, float, float]:
         """(beta_0, midpoint, beta_inf) of the sigmoid."""
-        beta_0, beta_inf = ((self.dim - 0.5, self.dim - 1.5) if self.limits is None
-                            else self.limits)
+        beta_0, beta_inf = _sigmoid_limits(self.dim, self.limits)
         return beta_0, 0.5 * (beta_0 + beta_inf), beta_inf
 
 

@@ -177,8 +177,9 @@ def file_path_fields() -> frozenset[str]:
     only these absolute against the folder of the file that wrote them
     (:func:`grainflow.sweep.spec.absolute_paths`): any other string, a scenario's name or a
     unit, stays what it is even where a file or folder of that name exists."""
-    return frozenset(name for table in tables()
-                     for name, info in table.model.model_fields.items()
+    models = ([model for _, _, model, _, _ in _GENERIC]
+              + [model for _, _, model, _ in _scenario_tables()])
+    return frozenset(name for model in models for name, info in model.model_fields.items()
                      if _holds_file_path(info.annotation, list(info.metadata)))
 
 

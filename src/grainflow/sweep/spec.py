@@ -206,8 +206,12 @@ class SweepSpec(BaseModel):
     def point_config(self, point: Point) -> dict[str, Any]:
         """The config a point runs: :meth:`Point.config` with relative file paths made
         absolute against the folder of the file that wrote them (see :func:`absolute_paths`)."""
-        config = absolute_paths(self.base, self._base_dir)
-        overrides = {k: absolute_paths(v, self._overrides_dir, k.rsplit(".", 1)[-1])
+        from grainflow.config.reference import file_path_fields
+
+        fields = file_path_fields()
+        config = _absolute_paths(self.base, _folder(self._base_dir), None, fields)
+        overrides = {k: _absolute_paths(v, _folder(self._overrides_dir), k.rsplit(".", 1)[-1],
+                                        fields)
                      for k, v in point.overrides.items()}
         return Point(overrides, point.seed_field, point.seed).config(config)
 
@@ -328,8 +332,11 @@ def absolute_paths(value: Any, folder: Path | None, key: str | None = None) -> A
     """
     from grainflow.config.reference import file_path_fields
 
-    return _absolute_paths(value, Path.cwd() if folder is None else folder, key,
-                           file_path_fields())
+    return _absolute_paths(value, _folder(folder), key, file_path_fields())
+
+
+def _folder(folder: Path | None) -> Path:
+    return Path.cwd() if folder is None else folder
 
 
 def _absolute_paths(value: Any, folder: Path, key: str | None, fields: frozenset[str]) -> Any:

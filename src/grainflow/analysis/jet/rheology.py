@@ -204,8 +204,9 @@ def _values(mesh: _Mesh, main: CGFields, half: CGFields, shifted: CGFields, diam
         grad_axis = np.diff(v_shift[:, axial]) / mesh.spacing
         D = 0.5 * (grad_wall + grad_axis)
         diag = np.diagonal(sigma, axis1=-2, axis2=-1)
-        normal = (_normal_strain_rates_2d(mesh, v_half, v_shift, D) if dim == 2
-                  else _normal_strain_rates_3d(mesh, main.velocity, v_half, v_shift, D))
+        normal = (_normal_strain_rates_2d(mesh, half_height, v_half, v_shift, D) if dim == 2
+                  else _normal_strain_rates_3d(mesh, half_height, main.velocity, v_half, v_shift,
+                                               D))
         normal["I_dev"] = inertial_number(normal["D_dev"], P, diameter, mass, dim)
         values = {
             "phi": main.packing_fraction,
@@ -230,8 +231,8 @@ def _values(mesh: _Mesh, main: CGFields, half: CGFields, shifted: CGFields, diam
     return values
 
 
-def _normal_strain_rates_2d(mesh: _Mesh, v_half: np.ndarray, v_shift: np.ndarray,
-                            D_xy: np.ndarray) -> dict[str, np.ndarray]:
+def _normal_strain_rates_2d(mesh: _Mesh, half_height: float, v_half: np.ndarray,
+                            v_shift: np.ndarray, D_xy: np.ndarray) -> dict[str, np.ndarray]:
     """The 2D cells' normal strain rates by the same half-cell differences as D_xy:
     dv_x/dx from the two half layers, dv_y/dy from the shifted cells. Beside D_xy they give the
     extension rate D_ext = (dv_x/dx - dv_y/dy)/2, the deviatoric magnitude
@@ -240,8 +241,7 @@ def _normal_strain_rates_2d(mesh: _Mesh, v_half: np.ndarray, v_shift: np.ndarray
     those axes); :func:`_values` adds I_dev = D_dev sqrt(m / P), the inertial number of the
     whole deviatoric rate. The seed's I_s uses D_xy alone (Sec. 6.1.3); these show where that
     misses the flow: on the stagnation line the flow is an extension and D_xy ~ 0."""
-    lo, hi = mesh.layer
-    dvx_dx = (v_half[1, :, 0] - v_half[0, :, 0]) / (0.5 * (hi - lo))
+    dvx_dx = (v_half[1, :, 0] - v_half[0, :, 0]) / half_height
     dvy_dy = np.diff(v_shift[:, 1]) / mesh.spacing
     extension = 0.5 * (dvx_dx - dvy_dy)
     deviatoric = np.hypot(D_xy, extension)
@@ -249,8 +249,9 @@ def _normal_strain_rates_2d(mesh: _Mesh, v_half: np.ndarray, v_shift: np.ndarray
             "shear_fraction": np.abs(D_xy) / deviatoric}
 
 
-def _normal_strain_rates_3d(mesh: _Mesh, velocity: np.ndarray, v_half: np.ndarray,
-                            v_shift: np.ndarray, D_rz: np.ndarray) -> dict[str, np.ndarray]:
+def _normal_strain_rates_3d(mesh: _Mesh, half_height: float, velocity: np.ndarray,
+                            v_half: np.ndarray, v_shift: np.ndarray,
+                            D_rz: np.ndarray) -> dict[str, np.ndarray]:
     """The 3D rings' normal strain rates by the half-cell differences of D_rz: dv_z/dz from
     the two half layers, dv_r/dr from the shifted rings (the first, 0 < r < dr/2, standing for
     r = 0, as for dv_z/dr), and the hoop rate v_r/r at the ring's centre. With them the
@@ -258,9 +259,8 @@ def _normal_strain_rates_3d(mesh: _Mesh, velocity: np.ndarray, v_half: np.ndarra
     (D' = D - tr(D)/3; for the 2D cells the same definition gives sqrt(D_xy^2 + D_ext^2)) and
     the shear fraction |D_rz| / D_dev. Next to the target the flow is mostly a compression
     along z and an extension in r: the seed's D_rz (Sec. 5.3.3) is a part of the rate."""
-    lo, hi = mesh.layer
     centres = 0.5 * (mesh.edges[1:] + mesh.edges[:-1])
-    dvz_dz = (v_half[:, 1, 2] - v_half[:, 0, 2]) / (0.5 * (hi - lo))
+    dvz_dz = (v_half[:, 1, 2] - v_half[:, 0, 2]) / half_height
     dvr_dr = np.diff(v_shift[:, 0]) / mesh.spacing
     hoop = velocity[:, 0] / centres
     trace = (dvr_dr + hoop + dvz_dz) / 3.0
