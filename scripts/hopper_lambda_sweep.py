@@ -1,24 +1,31 @@
-"""The hopper study's reduced 2D lambda sweep (the authors' path) with another number of
-grains, to tell how lambda_c follows the pile's height (docs/hopper_study.md, "lambda_c and
-the friction limit").
+"""The hopper study's reduced lambda sweep (the authors' path) with another pile: a number of
+grains or a container width other than the study's, to tell how the friction limit and
+lambda_c follow the pile's height (docs/hopper_study.md, "lambda_c and the friction limit"
+and "3D").
 
-Runs the ``q2d`` sweep of :data:`grainflow.studies.hopper_authors.AUTHORS_REDUCED` (six
-widths, seven lambda, 150 t0) with ``hopper.n = N`` into OUT_DIR (finished points are kept),
-then prints the free Beverloo exponent at each lambda and lambda_c from eq. (14) through the
-free and the bounded betas, and through the free betas between their measured limits.
+Runs the ``q2d`` (or ``q3d``) sweep of :data:`grainflow.studies.hopper_authors.AUTHORS_REDUCED`
+with ``hopper.n = N`` and ``hopper.width = W`` into OUT_DIR (finished points are kept), then
+prints the free Beverloo exponent at each lambda, Q at each width, and lambda_c from
+eq. (14) through the free and the bounded betas, and through the free betas between their
+measured limits. ``--lambdas`` replaces the sweep's lambda (3D default: the full plan's
+0, 0.01, 0.05, 0.181, 1, inf; the reduced study runs only the two limits).
 
-Usage (N = 3200: 42 runs, about 2,150 CPU-s, 18 minutes on 2 cores)::
+Usage::
 
-    python scripts/hopper_lambda_sweep.py OUT_DIR [--n 3200]
+    python scripts/hopper_lambda_sweep.py OUT_DIR [--dim 2] [--n 3200] [--width W]
+        [--lambdas 0 inf]
+
+2D, N = 3200: 42 runs, about 2,150 CPU-s, 18 minutes on 2 cores.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
-from grainflow.studies.hopper_authors import (AUTHORS_REDUCED, SIGMOID_KINDS, _sigmoids,
-                                              collect, sweep_specs, three_fits)
+from grainflow.studies.hopper_authors import (AUTHORS_FULL, AUTHORS_REDUCED, SIGMOID_KINDS,
+                                              _sigmoids, collect, sweep_specs, three_fits)
 from grainflow.studies.points import run_sweeps
 from grainflow.sweep import parse_sweep
 
@@ -26,19 +33,37 @@ from grainflow.sweep import parse_sweep
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", type=Path)
-    parser.add_argument("--n", type=int, default=3200, help="grains in the hopper (study: 1600)")
+    parser.add_argument("--dim", type=int, choices=(2, 3), default=2)
+    parser.add_argument("--n", type=int, default=None,
+                        help="grains in the hopper (study: 1600 in 2D, 6400 in 3D)")
+    parser.add_argument("--width", type=float, default=None,
+                        help="W / sigma_avg: side walls (2D) or cylinder diameter (3D); "
+                        "default the scenario's (50 and 25)")
+    parser.add_argument("--lambdas", type=float, nargs="+", default=None,
+                        help="lambda values (default: the study's 2D sweep, the full plan's 3D)")
     args = parser.parse_args(argv)
-    raw = sweep_specs(AUTHORS_REDUCED)["q2d"].model_dump()
-    raw["base"]["hopper"]["n"] = args.n
-    points = run_sweeps({"q2d": parse_sweep(raw)}, args.out, progress="plain")["q2d"]
+    name = f"q{args.dim}d"
+    raw = sweep_specs(AUTHORS_REDUCED)[name].model_dump()
+    if args.n is not None:
+        raw["base"]["hopper"]["n"] = args.n
+    if args.width is not None:
+        raw["base"]["hopper"]["width"] = args.width
+    lambdas = args.lambdas or (list(AUTHORS_FULL.lambdas_3d) if args.dim == 3 else None)
+    if lambdas is not None:
+        raw["overrides"]["hopper.lam"]["values"] = lambdas
+    points = run_sweeps({name: parse_sweep(raw)}, args.out, progress="plain")[name]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
-    fits = [(key[0], three_fits(series, 2, key[0]))
-            for key, series in sorted(collect(args.out / "q2d").items())]
-    for lam, three in fits:
+    collected = sorted(collect(args.out / name).items())
+    fits = [(key[0], three_fits(series, args.dim, key[0])) for key, series in collected]
+    for (key, series), (lam, three) in zip(collected, fits):
         free = three.get("free")
         print(f"lambda = {lam:g}: free beta = " + (f"{free.beta:.3f} ± {free.beta_err:.3f}, "
                                                    f"k = {free.k:.2f}" if free else "not fit"))
-    sigmoids = _sigmoids(fits, 2)
+        print("   Q(w): " + ", ".join(f"{w:g}: {q:.4g}" for w, q in sorted(zip(series.w,
+                                                                                 series.Q))))
+    if not any(lam == 0.0 for lam, _ in fits) or not any(math.isinf(lam) for lam, _ in fits):
+        return
+    sigmoids = _sigmoids(fits, args.dim)
     for kind, label in SIGMOID_KINDS.items():
         s = sigmoids.get(kind)
         print(f"lambda_c from {label}: " + (f"{s.lambda_c:.4f} ± {s.lambda_c_err:.4f} "
