@@ -21,7 +21,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 from grainflow.studies.hopper_authors import (AUTHORS_FULL, AUTHORS_REDUCED, SIGMOID_KINDS,
@@ -53,16 +52,16 @@ def main(argv: list[str] | None = None) -> None:
         raw["overrides"]["hopper.lam"]["values"] = lambdas
     points = run_sweeps({name: parse_sweep(raw)}, args.out, progress="plain")[name]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
-    collected = sorted(collect(args.out / name).items())
-    fits = [(key[0], three_fits(series, args.dim, key[0])) for key, series in collected]
-    for (key, series), (lam, three) in zip(collected, fits):
+    fits = []
+    for key, series in sorted(collect(args.out / name).items()):
+        lam = key[0]
+        three = three_fits(series, args.dim, lam)
+        fits.append((lam, three))
         free = three.get("free")
         print(f"lambda = {lam:g}: free beta = " + (f"{free.beta:.3f} ± {free.beta_err:.3f}, "
                                                    f"k = {free.k:.2f}" if free else "not fit"))
         print("   Q(w): " + ", ".join(f"{w:g}: {q:.4g}" for w, q in sorted(zip(series.w,
                                                                                  series.Q))))
-    if not any(lam == 0.0 for lam, _ in fits) or not any(math.isinf(lam) for lam, _ in fits):
-        return
     sigmoids = _sigmoids(fits, args.dim)
     for kind, label in SIGMOID_KINDS.items():
         s = sigmoids.get(kind)
