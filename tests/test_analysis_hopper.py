@@ -34,6 +34,7 @@ from grainflow.plotting.hopper_plots import (
     plot_flow_rate_timeseries,
     plot_velocity_profiles,
 )
+from grainflow.studies.hopper_results import fmt_lambda_c
 
 SIGMA_S, SIGMA_L = 1.0 / 1.2, 1.4 / 1.2  # bidisperse 50:50, sigma_avg = 1 (seed 003 Sec. 2.2)
 AREAS = np.pi / 4 * np.array([SIGMA_S, SIGMA_L]) ** 2
@@ -381,3 +382,36 @@ def test_sigmoid_between_measured_limits():
     assert fixed.lambda_c > 0.08 and fixed.levels == (1.5, 1.0, 0.5)
     with pytest.raises(ValueError, match="limits"):
         fit_beta_sigmoid(lam, beta, dim=2, limits=(1.0, 1.0))
+
+
+def test_sigmoid_step_is_not_resolved(tmp_path):
+    """Where beta jumps between two sampled lambdas the fit narrows to a step and its
+    curvature error means nothing: ``resolved`` says so and ``bracket`` gives the samples
+    around the jump. Data: the free 3D betas of the W = 16.7 sigma_avg lambda sweep
+    (2026-12-06), whose fixed-limit fit gave lambda_c = 0.1806 ± 0.0002 with b = 0.001."""
+    lam = np.array([0.01, 0.05, 0.180956, 1.0])
+    beta, err = np.array([3.74, 3.12, 1.70, 1.21]), np.array([0.39, 0.32, 0.20, 0.11])
+    step = fit_beta_sigmoid(lam, beta, dim=3, beta_err=err)
+    assert not step.resolved and step.transition_lambdas.size < 2
+    low, high = step.bracket
+    assert 0.05 <= low < step.lambda_c < high <= 1.0
+    assert fmt_lambda_c(step) == f"not resolved: a step between λ = {low:g} and {high:g}"
+    between = fit_beta_sigmoid(lam, beta, dim=3, beta_err=err, limits=(3.96, 0.85))
+    assert between.resolved and between.transition_lambdas.size >= 2
+    assert fmt_lambda_c(between).startswith(f"{between.lambda_c:.3g} ± ")
+    assert fmt_lambda_c(None) == "not fit"
+    assert plot_beta_sigmoid([step, between], tmp_path / "step.png").stat().st_size > 0
+
+
+def test_sigmoid_resolution_counts_distinct_lambdas():
+    """Two realizations at the same lambdas (a pooled fit) count each lambda once: a smooth
+    sigmoid sampled at one lambda per decade has one sample in its transition whatever the
+    number of realizations."""
+    lam = np.logspace(-4, 2, 7)
+    beta = beta_sigmoid(lam, 0.03, 0.3, 2)
+    one = fit_beta_sigmoid(lam, beta, dim=2)
+    two = fit_beta_sigmoid(np.r_[lam, lam], np.r_[beta, beta], dim=2)
+    assert one.transition_lambdas.size == two.transition_lambdas.size
+    assert one.resolved == two.resolved
+    dense = np.logspace(-4, 2, 25)
+    assert fit_beta_sigmoid(dense, beta_sigmoid(dense, 0.03, 0.3, 2), dim=2).resolved

@@ -480,6 +480,14 @@ def test_ctrl_c_while_the_program_starts_is_one_line(tmp_path: Path, delay: floa
     time.sleep(delay)
     proc.send_signal(signum)
     _, err = proc.communicate(timeout=60)
+    if err.startswith("Fatal Python error: init_import_site"):
+        # the signal landed while the interpreter was still starting (site.py running the
+        # installed packages' .pth files takes longer than the delay on a loaded machine):
+        # Python's own report, from before any line of grainflow ran
+        import grainflow
+
+        assert str(Path(grainflow.__file__).parent) not in err, err
+        return
     assert "Traceback" not in err, err
     # 130 (or killed by the signal, as Python ends on an interrupt it re-raises, or before
     # our handler is in place); 2: done already

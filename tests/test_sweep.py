@@ -107,6 +107,21 @@ def test_explicit_seeds(tmp_path):
     assert [p.seed for p in spec.points()] == [11, 3]
 
 
+def test_a_base_seed_the_sweep_replaces_is_warned(tmp_path, recwarn):
+    """The sweep sets every point's seed; a non-default base seed outside its seeds would
+    silently not run (the stream study's base said seed 1 and ran seed 0), so it warns with
+    the fix. The default 0 and a base seed among the sweep's seeds do not."""
+    base = helpers.base_config(tmp_path)
+    base["run"]["seed"] = 7
+    with pytest.warns(UserWarning, match=r"run.seed = 7.*\[0, 1\].*seed_start = 7"):
+        make_spec(tmp_path, base=base)
+    make_spec(tmp_path, base=base, seed_start=6)  # seeds 6 and 7
+    make_spec(tmp_path, seeds=[3])  # base seed 0: the default
+    assert not [w for w in recwarn if "run.seed" in str(w.message)]
+    spec = make_spec(tmp_path, base=base, seeds=[7])
+    assert [spec.point_config(p)["run"]["seed"] for p in spec.points()] == [7] * 4
+
+
 def test_point_ids_do_not_depend_on_listing_order(tmp_path):
     forward = make_spec(tmp_path, overrides={"p.a": [1, 2], "p.b": [1.0, 2.0]})
     backward = make_spec(tmp_path, overrides={"p.b": [2, 1], "p.a": [2.0, 1.0]})

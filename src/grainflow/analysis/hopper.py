@@ -666,6 +666,10 @@ def beta_sigmoid(lam: ArrayLike, lambda_c: float, b: float, dim: int,
     return 0.5 * (beta_0 + beta_inf) - 0.5 * (beta_0 - beta_inf) * shape
 
 
+#: |tanh argument| inside which eq. (14) lies between 10 % and 90 % of its way (tanh = 0.8).
+_TRANSITION_HALF_WIDTH = math.atanh(0.8)
+
+
 @dataclass(frozen=True)
 class SigmoidFit:
     """Least-squares fit of seed eq. (14) to beta(lambda).
@@ -707,6 +711,36 @@ class SigmoidFit:
         beta_0, beta_inf = _sigmoid_limits(self.dim, self.limits)
         return beta_0, 0.5 * (beta_0 + beta_inf), beta_inf
 
+    def _log_offsets(self) -> np.ndarray:
+        """log10(lambda / lambda_c) / b of each distinct sampled lambda: the tanh argument."""
+        return np.log10(np.unique(self.lam) / self.lambda_c) / self.b
+
+    @property
+    def transition_lambdas(self) -> np.ndarray:
+        """The distinct sampled lambdas inside the transition, where the sigmoid has gone
+        between 10 % and 90 % of its way from one limit to the other
+        (|log10(lambda/lambda_c)| < atanh(0.8) b)."""
+        inside = np.abs(self._log_offsets()) < _TRANSITION_HALF_WIDTH
+        return np.unique(self.lam)[inside]
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the data place lambda_c: at least two distinct sampled lambdas inside the
+        transition. With fewer, the best fit narrows to a step (b at or near its bound)
+        pinned to a sample, and ``lambda_c_err``, read off the fit's curvature, means nothing
+        (a 3D sweep whose beta falls from 3.1 to 1.7 between lambda = 0.05 and 0.18 gave
+        0.1806 ± 0.0002 with b = 0.001); :attr:`bracket` is then all the data say."""
+        return self.transition_lambdas.size >= 2
+
+    @property
+    def bracket(self) -> tuple[float, float]:
+        """The sampled lambdas that bound the transition: the largest below it and the
+        smallest above it (0 and infinity where no sample lies on that side)."""
+        lam, x = np.unique(self.lam), self._log_offsets()
+        below, above = lam[x <= -_TRANSITION_HALF_WIDTH], lam[x >= _TRANSITION_HALF_WIDTH]
+        return (float(below.max()) if below.size else 0.0,
+                float(above.min()) if above.size else math.inf)
+
 
 def fit_beta_sigmoid(
     lam: ArrayLike,
@@ -722,7 +756,10 @@ def fit_beta_sigmoid(
     lambda_c_err = ln(10) lambda_c sigma_log10. With ``beta_err`` (e.g. ``BeverlooFit.beta_err``)
     the errors are absolute; without, the covariance is scaled by chi2/dof. Starting values come
     from a grid over (log10 lambda_c, b). The pure limits lambda = 0 and infinity carry no
-    information on lambda_c or b and cannot be placed on a log axis; leave them out.
+    information on lambda_c or b and cannot be placed on a log axis; leave them out. Where
+    fewer than two sampled lambdas fall inside the transition the data do not place lambda_c
+    (:attr:`SigmoidFit.resolved` is False): quote :attr:`SigmoidFit.bracket` then, not
+    lambda_c ± lambda_c_err.
 
     Parameters
     ----------

@@ -125,8 +125,12 @@ def plot_beta_sigmoid(
     for i, (fit, name) in enumerate(zip(fit_list, names, strict=True)):
         colour, marker = colours[i % 10], _MARKERS[i % len(_MARKERS)]
         err = None if np.all(np.isnan(fit.beta_err)) else fit.beta_err
-        label = (rf"$\lambda_c={fit.lambda_c:.2g}\pm{fit.lambda_c_err:.1g}$, "
-                 rf"$b={fit.b:.2g}\pm{fit.b_err:.1g}$")
+        if fit.resolved:
+            label = (rf"$\lambda_c={fit.lambda_c:.2g}\pm{fit.lambda_c_err:.1g}$, "
+                     rf"$b={fit.b:.2g}\pm{fit.b_err:.1g}$")
+        else:
+            low, high = fit.bracket
+            label = rf"a step at $\lambda$ = {low:g}-{high:g}: $\lambda_c$ not resolved"
         ax.errorbar(fit.lam, fit.beta, yerr=err, fmt=marker, color=colour, ms=5, capsize=2,
                     mfc="none", label=f"{name}: {label}" if name else label)
         ax.plot(lam_curve, fit.predict(lam_curve), "-", color=colour, lw=1.2)

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from grainflow.scenarios.hopper_units import AUTHORS_3D_SPK, AUTHORS_3D_UNITS, AUTHORS_CODE
-from grainflow.studies.hopper_results import Series, collect_series, fmt
+from grainflow.studies.hopper_results import Series, collect_series, fmt, fmt_lambda_c
 
 __all__ = ["AUTHORS_FULL", "AUTHORS_REDUCED", "AuthorsPlan", "FITS", "reproduce_authors",
            "sweep_specs"]
@@ -423,18 +423,18 @@ def _seed_table(plan: AuthorsPlan, fits: dict, sigmoids: dict[Any, dict[str, Any
         for kind, label in SIGMOID_KINDS.items():
             s = sigmoids[name].get(kind)
             lines.append(f"| {dim}D λ_c from {label} | {seed} | "
-                         f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
+                         f"{fmt_lambda_c(s)} | | |")
         if dim == 2 and len(replicates) > 2:
             for kind, label in SIGMOID_KINDS.items():
                 s = replicates[POOLED].get(kind)
                 lines.append(f"| 2D λ_c, {len(replicates) - 1} realizations pooled ({label}) "
                              f"| {seed} | "
-                             f"{fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} | | |")
+                             f"{fmt_lambda_c(s)} | | |")
     for theta in plan.theta_w:
         for kind, label in SIGMOID_KINDS.items():
             s = sigmoids[theta].get(kind)
             lines.append(f"| λ_c at θ_w = {theta:g}° ({label}) | falls to ~6e-3 (OCR "
-                         f"'6x10^?') | {fmt(s.lambda_c, s.lambda_c_err) if s else 'not fit'} "
+                         f"'6x10^?') | {fmt_lambda_c(s)} "
                          "| | |")
     return lines
 
@@ -548,15 +548,16 @@ def _realization_table(realizations: dict[tuple[float, int], Any],
         cells = []
         for s in seeds:
             fit = replicates.get(s, {}).get(kind)
-            cells.append(fmt(fit.lambda_c, fit.lambda_c_err) if fit else "not fit")
-        per_seed = [replicates[s][kind].lambda_c for s in seeds if kind in replicates.get(s, {})]
+            cells.append(fmt_lambda_c(fit))
+        per_seed = [replicates[s][kind].lambda_c for s in seeds
+                    if kind in replicates.get(s, {}) and replicates[s][kind].resolved]
         spread = (fmt(float(np.mean(per_seed)), float(np.std(per_seed, ddof=1)))
                   if len(per_seed) >= 2 else "")
         lines.append(f"| λ_c ({label}) | " + " | ".join(cells) + f" | {spread} |")
     pooled = replicates.get(POOLED, {})
     lines += ["", "Pooled (one unweighted sigmoid through every realization's betas, its error "
               "from their scatter): " + "; ".join(
-                  f"λ_c = {fmt(pooled[k].lambda_c, pooled[k].lambda_c_err)} ({label})"
+                  f"λ_c = {fmt_lambda_c(pooled[k])} ({label})"
                   for k, label in SIGMOID_KINDS.items() if k in pooled) + "."]
     return lines
 

@@ -20,9 +20,9 @@ from grainflow.scenarios.hopper import DIAMETER_RATIO, EVENTS, SIGMA_SMALL
 from grainflow.scenarios.hopper_reinsertion import grain_size, read_events_csv
 
 if TYPE_CHECKING:
-    from grainflow.analysis.hopper import FlowRate
+    from grainflow.analysis.hopper import FlowRate, SigmoidFit
 
-__all__ = ["Series", "collect_series", "flow_summary", "fmt", "read_events"]
+__all__ = ["Series", "collect_series", "flow_summary", "fmt", "fmt_lambda_c", "read_events"]
 
 
 @dataclass
@@ -69,6 +69,18 @@ def fmt(value: float | None, err: float | None = None) -> str:
     if value is None or not np.isfinite(value):
         return "n/a"
     return f"{value:.3g}" if err is None else f"{value:.3g} ± {err:.2g}"
+
+
+def fmt_lambda_c(fit: "SigmoidFit | None") -> str:
+    """lambda_c of a :class:`~grainflow.analysis.hopper.SigmoidFit` for a report: value and
+    error where the data place it (``fit.resolved``), else the two sampled lambdas the
+    transition lies between; "not fit" without a fit."""
+    if fit is None:
+        return "not fit"
+    if fit.resolved:
+        return fmt(fit.lambda_c, fit.lambda_c_err)
+    low, high = fit.bracket
+    return f"not resolved: a step between λ = {low:g} and {high:g}"
 
 
 def read_events(rundir: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from grainflow.scenarios.hopper import SIGMA_SMALL
-from grainflow.studies.hopper_results import Series, collect_series, fmt
+from grainflow.studies.hopper_results import Series, collect_series, fmt, fmt_lambda_c
 
 
 @dataclass(frozen=True)
@@ -192,7 +192,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
         row(f"hard-particle k, λ={lam:g}", ("k", 2, lam), "hard2d", "k")
         row(f"hard-particle C, λ={lam:g}", ("C", 2, lam), "hard2d", "C")
     lines.append(f"| 2D λ_c | 0.05 | "
-                 f"{fmt(sigmoid.lambda_c, sigmoid.lambda_c_err) if sigmoid else 'not fit'} | |")
+                 f"{fmt_lambda_c(sigmoid)} | |")
     lines += ["", "All Beverloo fits Q = C (w - k)^beta (fit uncertainties, 1 sigma):", "",
               "| sweep | λ | widths | C | k | β | χ²/dof |", "|---|---|---|---|---|---|---|"]
     for name, series_fits in fits.items():

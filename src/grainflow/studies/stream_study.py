@@ -87,7 +87,7 @@ def _base(plan: StreamPlan) -> dict[str, Any]:
     if plan.frames_from > 0:
         output["frames_from"] = plan.frames_from
     return {"scenario": "stream", "dim": 3,
-            "run": {"duration": plan.duration, "seed": 1},
+            "run": {"duration": plan.duration, "seed": 0},
             "output": output,
             "stream": {**plan.stream, "restitution": 0.88, "cohesion_force": "0 nN",
                        "cohesion_range": "100 nm"}}

@@ -29,6 +29,7 @@ import itertools
 import json
 import re
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from collections.abc import Iterable
@@ -193,6 +194,7 @@ class SweepSpec(BaseModel):
             raise ValueError("; ".join(problems))
         _check_no_nesting([*self.overrides, self.seed_field])
         _check_seed_field(self.base, self.seed_field)
+        self._warn_replaced_base_seed()
         if self.mode == "zip":
             lengths = {path: len(axis.resolve()) for path, axis in self.overrides.items()}
             if len(set(lengths.values())) > 1:
@@ -202,6 +204,22 @@ class SweepSpec(BaseModel):
                 )
         self.points()  # rejects repeated points
         return self
+
+    def _warn_replaced_base_seed(self) -> None:
+        """Every point's seed comes from the sweep (``seeds`` or ``seed_start``) and replaces
+        the base config's. A base seed other than the default 0 that the sweep's seeds leave
+        out names a realization the sweep will not run: warn whoever wrote it."""
+        node: Any = self.base
+        for key in self.seed_field.split("."):
+            if not isinstance(node, dict) or key not in node:
+                return
+            node = node[key]
+        if node != 0 and node not in self.seed_values():
+            warnings.warn(
+                f"sweep {self.name!r}: the base config sets {self.seed_field} = {node!r}, but "
+                f"every point takes its seed from the sweep ({self.seed_values()}); to run "
+                f"that realization set seed_start = {node!r} or seeds = [{node!r}]",
+                UserWarning, stacklevel=2)
 
     def point_config(self, point: Point) -> dict[str, Any]:
         """The config a point runs: :meth:`Point.config` with relative file paths made
