@@ -39,7 +39,7 @@ TESTS_DIR = Path(__file__).parent
 TINY: dict[str, Any] = {
     "dim": 2,
     "gravity": [0, -1],
-    "run": {"steps": 400, "seed": 7},
+    "run": {"steps": 400, "seed": 0},
     "output": {"thermo_every": 20, "frames_every": 100, "checkpoint_every": 100,
                "snapshot": False},
     "box": {"lo": [0, 0], "hi": [6, 10]},
