@@ -25,8 +25,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from grainflow.analysis.hopper import fit_beverloo
 from grainflow.studies.hopper_authors import (AUTHORS_FULL, AUTHORS_REDUCED, SIGMOID_KINDS,
                                               _sigmoids, collect, sweep_specs, three_fits)
@@ -74,9 +72,7 @@ def main(argv: list[str] | None = None) -> None:
                                                                                  series.Q))))
         fixed = [three["fixed"]] if "fixed" in three else []
         if lam == 0.0 and len(series.w) >= 4:  # the viscous exponent beside Beverloo's
-            order = np.argsort(series.w)
-            fixed.append(fit_beverloo(np.asarray(series.w)[order], np.asarray(series.Q)[order],
-                                      Q_err=np.asarray(series.Q_err)[order], beta=args.dim))
+            fixed.append(fit_beverloo(series.w, series.Q, Q_err=series.Q_err, beta=args.dim))
         for fit in fixed:
             print(f"   beta fixed at {fit.beta:g}: k = {fit.k:.2f}, "
                   f"chi2/dof = {fit.chi2 / fit.dof:.2f}")

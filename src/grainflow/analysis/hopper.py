@@ -711,17 +711,19 @@ class SigmoidFit:
         beta_0, beta_inf = _sigmoid_limits(self.dim, self.limits)
         return beta_0, 0.5 * (beta_0 + beta_inf), beta_inf
 
-    def _log_offsets(self) -> np.ndarray:
-        """log10(lambda / lambda_c) / b of each distinct sampled lambda: the tanh argument."""
-        return np.log10(np.unique(self.lam) / self.lambda_c) / self.b
+    def _log_offsets(self) -> tuple[np.ndarray, np.ndarray]:
+        """The distinct sampled lambdas and log10(lambda / lambda_c) / b of each: the tanh
+        argument."""
+        lam = np.unique(self.lam)
+        return lam, np.log10(lam / self.lambda_c) / self.b
 
     @property
     def transition_lambdas(self) -> np.ndarray:
         """The distinct sampled lambdas inside the transition, where the sigmoid has gone
         between 10 % and 90 % of its way from one limit to the other
         (|log10(lambda/lambda_c)| < atanh(0.8) b)."""
-        inside = np.abs(self._log_offsets()) < _TRANSITION_HALF_WIDTH
-        return np.unique(self.lam)[inside]
+        lam, x = self._log_offsets()
+        return lam[np.abs(x) < _TRANSITION_HALF_WIDTH]
 
     @property
     def resolved(self) -> bool:
@@ -736,7 +738,7 @@ class SigmoidFit:
     def bracket(self) -> tuple[float, float]:
         """The sampled lambdas that bound the transition: the largest below it and the
         smallest above it (0 and infinity where no sample lies on that side)."""
-        lam, x = np.unique(self.lam), self._log_offsets()
+        lam, x = self._log_offsets()
         below, above = lam[x <= -_TRANSITION_HALF_WIDTH], lam[x >= _TRANSITION_HALF_WIDTH]
         return (float(below.max()) if below.size else 0.0,
                 float(above.min()) if above.size else math.inf)

@@ -209,11 +209,10 @@ class SweepSpec(BaseModel):
         """Every point's seed comes from the sweep (``seeds`` or ``seed_start``) and replaces
         the base config's. A base seed other than the default 0 that the sweep's seeds leave
         out names a realization the sweep will not run: warn whoever wrote it."""
-        node: Any = self.base
-        for key in self.seed_field.split("."):
-            if not isinstance(node, dict) or key not in node:
-                return
-            node = node[key]
+        try:
+            node = get_dotted(self.base, self.seed_field)
+        except KeyError:
+            return
         if node != 0 and node not in self.seed_values():
             warnings.warn(
                 f"sweep {self.name!r}: the base config sets {self.seed_field} = {node!r}, but "
