@@ -54,6 +54,18 @@ def sleep_runner(config: dict[str, Any], rundir: Path) -> None:
     ))
 
 
+def gated_runner(config: dict[str, Any], rundir: Path) -> None:
+    """Like sleep_runner, but a point with p.a >= 2 first waits (up to 60 s) for the file
+    test.gate to exist: the points with p.a = 1 finish, and the sweep cannot finish before
+    the test creates the gate, however slowly the machine polls."""
+    if config["p"]["a"] >= 2:
+        gate = Path(config["test"]["gate"])
+        deadline = time.monotonic() + 60.0
+        while not gate.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+    sleep_runner(config, rundir)
+
+
 def failing_runner(config: dict[str, Any], rundir: Path) -> None:
     """Like sleep_runner, but raises for p.a == test.fail_a."""
     if config["p"]["a"] == config["test"]["fail_a"]:

@@ -17,6 +17,7 @@ import sys
 import time
 import tomllib
 from pathlib import Path
+from typing import Any
 
 import psutil
 import pytest
@@ -341,12 +342,13 @@ def test_busy_sweep_directory_and_unknown_runner_are_refused(tmp_path):
 # Command line
 
 
-def write_sweep_file(tmp_path: Path, sleep: float) -> Path:
+def write_sweep_file(tmp_path: Path, sleep: float, runner: str = "sleep_runner",
+                     **test: Any) -> Path:
     path = tmp_path / "tiny.toml"
     data = {
-        "base": helpers.base_config(tmp_path, sleep=sleep),
+        "base": helpers.base_config(tmp_path, sleep=sleep, **test),
         "overrides": {"p.a": [1, 2, 3, 4], "p.b": [1.0, 2.0]},
-        "runner": "sweep_helpers:sleep_runner",
+        "runner": f"sweep_helpers:{runner}",
         "analyses": ["sweep_helpers:product"],
     }
     path.write_text(tomli_w.dumps(data))
@@ -369,12 +371,19 @@ def alive(process: psutil.Process) -> bool:
 
 
 def test_ctrl_c_leaves_a_consistent_catalog_and_the_sweep_resumes(tmp_path, scheduler):
-    sweep_file = write_sweep_file(tmp_path, sleep=0.6)
+    # the six points with p.a >= 2 wait for the gate, so the interrupt always finds the sweep
+    # unfinished (with plain sleeps a loaded machine's polling once saw the second point done
+    # only as the last one finished)
+    gate = tmp_path / "gate"
+    sweep_file = write_sweep_file(tmp_path, sleep=0.2, runner="gated_runner", gate=str(gate))
     sweepdir = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS_DIR), os.environ.get("PYTHONPATH", "")])}
     command = [sys.executable, "-m", "grainflow.sweep", "sweep", str(sweep_file), "-o", str(sweepdir),
                "-n", "2", "--progress", "plain", "--progress-interval", "0.5"]
-    proc = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    # started with SIGINT ignored, as a shell script's background job is: Ctrl-C must still
+    # interrupt the sweep (grainflow.interrupt.install), not leave it running to the end
+    proc = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     try:
         catalog_file = sweepdir / "catalog.sqlite"
 
@@ -402,6 +411,8 @@ def test_ctrl_c_leaves_a_consistent_catalog_and_the_sweep_resumes(tmp_path, sche
     assert counts["running"] == 0 and counts["failed"] == 0 and counts["done"] < 8
     done_before = {(r.params["p.a"], r.params["p.b"]) for r in rows if r.status == "done"}
     assert all(r.summary for r in rows if r.status == "done")
+
+    gate.touch()
 
     result = CliRunner().invoke(
         sweep_app, ["sweep", str(sweep_file), "-o", str(sweepdir), "--scheduler", scheduler]
