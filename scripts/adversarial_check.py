@@ -44,7 +44,6 @@ with PREFIX. The exit status is 0 when every case was refused cleanly / handled,
 from __future__ import annotations
 
 import argparse
-import copy
 import csv
 import gzip
 import json
