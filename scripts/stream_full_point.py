@@ -1,0 +1,75 @@
+"""Points of the stream study's full plan at the seed's sizes, to tell what the reductions do
+to the droplets (docs/streams.md, "Results of the reduced version": the peak network size
+and the droplets' spacing at the aperture miss the seed's).
+
+Runs the ``phase`` sweep of :data:`grainflow.studies.stream_study.FULL` (the 7.5 mm hopper
+filled 6 mm high, t_c = 50 us, 0.45 s, the stream followed to 22 cm) restricted to the
+chosen restitutions and cohesions, into OUT_DIR/phase (finished points are kept, and the
+full study run into the same OUT_DIR finds them done). ``--hopper-diameter``,
+``--fill-height`` and ``--contact-time`` change one of the full plan's sizes back to the
+reduced plan's, to tell which reduction moves a number; use another OUT_DIR for each.
+Prints each run's summary (:func:`grainflow.studies.stream_study.stream_summary`) and, for a
+cohesive stream, its adjacent droplets' separation velocities against free fall and the toy
+model's length L0 at the aperture, as the study's report gives them.
+
+Usage (one point on one thread, AMD EPYC: about 2.5-3 hours at the full plan's t_c = 50 us;
+5,985 s with ``--contact-time "100 us"`` while the other core was busy; docs/streams.md)::
+
+    python scripts/stream_full_point.py OUT_DIR [--e 0.88] [--fc 1000] [--contact-time "100 us"]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from grainflow.analysis.stream import aperture_length
+from grainflow.studies.points import run_sweeps
+from grainflow.studies.stream_study import (FULL, REGIME_NAMES, _section, _tracked_separations,
+                                           sweep_specs)
+from grainflow.sweep import parse_sweep
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--e", type=float, nargs="+", default=[0.88],
+                        help="restitutions (default 0.88)")
+    parser.add_argument("--fc", type=float, nargs="+", default=[1000.0],
+                        help="cohesion forces in nN (default 1000)")
+    for name in ("hopper-diameter", "fill-height", "contact-time"):
+        parser.add_argument(f"--{name}", default=None,
+                            help=f"the [stream] table's {name.replace('-', '_')} with its "
+                            "unit (default: the full plan's)")
+    args = parser.parse_args(argv)
+    raw = sweep_specs(FULL)["phase"].model_dump()
+    for name in ("hopper_diameter", "fill_height", "contact_time"):
+        if getattr(args, name) is not None:
+            raw["base"]["stream"][name] = getattr(args, name)
+    raw["overrides"] = {"stream.restitution": list(args.e),
+                        "stream.cohesion_force": [f"{f:g} nN" for f in args.fc]}
+    delta = _section(raw["base"]).cohesion_range  # m
+    points = run_sweeps({"phase": parse_sweep(raw)}, args.out, progress="plain")["phase"]
+    print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
+    for params, rundir, summary in zip(points.params, points.rundirs, points.summaries):
+        print(f"== {params}: {rundir}")
+        print("  " + ", ".join(f"{k} = {v:.4g}" for k, v in summary.items()))
+        print(f"  regime: {REGIME_NAMES[int(summary['regime'])]}")
+        if params["stream.cohesion_force"] == "0 nN":
+            continue
+        _, seps = _tracked_separations(rundir, delta, summary["v0"])
+        if not seps:
+            print("  no adjacent droplets tracked")
+            continue
+        v = 100 * np.array([q.velocity for q in seps])
+        predicted = 100 * np.array([q.predicted_velocity for q in seps])
+        length = aperture_length(seps)
+        print(f"  {len(seps)} adjacent pairs: separation velocity {v.mean():.3g} ± "
+              f"{v.std() / np.sqrt(v.size):.2g} cm/s, free fall {np.nanmean(predicted):.3g} cm/s; "
+              f"L0 = {1e3 * length.mean:.3g} ± {1e3 * length.err:.2g} mm ({length.pairs} pairs)")
+
+
+if __name__ == "__main__":
+    main()
