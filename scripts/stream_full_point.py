@@ -7,7 +7,9 @@ filled 6 mm high, t_c = 50 us, 0.45 s, the stream followed to 22 cm) restricted 
 chosen restitutions and cohesions, into OUT_DIR/phase (finished points are kept, and the
 full study run into the same OUT_DIR finds them done). ``--hopper-diameter``,
 ``--fill-height`` and ``--contact-time`` change one of the full plan's sizes back to the
-reduced plan's, to tell which reduction moves a number; use another OUT_DIR for each.
+reduced plan's, to tell which reduction moves a number; use another OUT_DIR for each, and
+never the full study's: a point is named by its e and F_c only, so the full study would take
+such a run for its own (with a warning that the base config differs).
 Prints each run's summary (:func:`grainflow.studies.stream_study.stream_summary`) and, for a
 cohesive stream, its adjacent droplets' separation velocities against free fall and the toy
 model's length L0 at the aperture, as the study's report gives them.
