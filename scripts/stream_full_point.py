@@ -7,9 +7,9 @@ filled 6 mm high, t_c = 50 us, 0.45 s, the stream followed to 22 cm) restricted 
 chosen restitutions and cohesions, into OUT_DIR/phase (finished points are kept, and the
 full study run into the same OUT_DIR finds them done). ``--hopper-diameter``,
 ``--fill-height`` and ``--contact-time`` change one of the full plan's sizes back to the
-reduced plan's, to tell which reduction moves a number; use another OUT_DIR for each, and
-never the full study's: a point is named by its e and F_c only, so the full study would take
-such a run for its own (with a warning that the base config differs).
+reduced plan's, to tell which reduction moves a number; such runs go into a sweep directory
+named after the change (``OUT_DIR/phase-contact_time-100us``), because a point is named by
+its e and F_c only and the full study must not take them for its own.
 Prints each run's summary (:func:`grainflow.studies.stream_study.stream_summary`) and, for a
 cohesive stream, its adjacent droplets' separation velocities against free fall and the toy
 model's length L0 at the aperture, as the study's report gives them.
@@ -47,13 +47,17 @@ def main(argv: list[str] | None = None) -> None:
                             "unit (default: the full plan's)")
     args = parser.parse_args(argv)
     raw = sweep_specs(FULL)["phase"].model_dump()
+    # a point is named by its e and F_c only: a run with a size changed goes into a sweep
+    # directory of its own, which the full study (OUT_DIR/phase) never reads as its own
+    sweep = "phase"
     for name in ("hopper_diameter", "fill_height", "contact_time"):
         if getattr(args, name) is not None:
             raw["base"]["stream"][name] = getattr(args, name)
+            sweep += f"-{name}-{getattr(args, name)}".replace(" ", "")
     raw["overrides"] = {"stream.restitution": list(args.e),
                         "stream.cohesion_force": [f"{f:g} nN" for f in args.fc]}
     delta = _section(raw["base"]).cohesion_range  # m
-    points = run_sweeps({"phase": parse_sweep(raw)}, args.out, progress="plain")["phase"]
+    points = run_sweeps({sweep: parse_sweep(raw)}, args.out, progress="plain")[sweep]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
     for params, rundir, summary in zip(points.params, points.rundirs, points.summaries):
         print(f"== {params}: {rundir}")
