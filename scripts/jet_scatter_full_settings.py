@@ -22,13 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from grainflow.analysis.jet import fit_psi0
-from grainflow.studies.jet_study import FULL, SEED, _mean_by, sweep_specs
+from grainflow.studies.jet_study import FULL, SEED, _mean_by, fit_psi0_means, sweep_specs
 from grainflow.studies.points import run_sweeps
 
 
 def _fit_line(X: np.ndarray, psi0: np.ndarray, err: np.ndarray, label: str) -> str:
-    fit = fit_psi0(X, psi0, np.where(np.isfinite(err), err, 0.02))
+    fit = fit_psi0_means(X, psi0, err)
+    if fit is None:
+        return f"  {label}: fewer than four X, not fit"
     return f"  {label}: " + ", ".join(
         f"{name} = {getattr(fit, name):.3f} ± {getattr(fit, name + '_err'):.3f} "
         f"(thesis {SEED[name][0]:g})" for name in ("C0", "C1", "C2"))

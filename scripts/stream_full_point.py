@@ -29,7 +29,7 @@ import numpy as np
 
 from grainflow.analysis.stream import aperture_length
 from grainflow.studies.points import run_sweeps
-from grainflow.studies.stream_study import (FULL, REGIME_NAMES, _section, _tracked_separations,
+from grainflow.studies.stream_study import (FULL, _section, _tracked_separations, regime_name,
                                            sweep_specs)
 from grainflow.sweep import parse_sweep
 
@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> None:
     for params, rundir, summary in zip(points.params, points.rundirs, points.summaries):
         print(f"== {params}: {rundir}")
         print("  " + ", ".join(f"{k} = {v:.4g}" for k, v in summary.items()))
-        print(f"  regime: {REGIME_NAMES[int(summary['regime'])]}")
+        print(f"  regime: {regime_name(summary)}")
         if params["stream.cohesion_force"] == "0 nN":
             continue
         _, seps = _tracked_separations(rundir, delta, summary["v0"])

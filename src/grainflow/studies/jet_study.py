@@ -24,11 +24,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from grainflow.studies.points import SweepPoints, run_sweeps
+
+if TYPE_CHECKING:
+    from grainflow.analysis.jet import Psi0Fit
 
 #: Seed values (thesis Chapters 4-6; PARAMETERS.md "Seed 002"), with their quoted
 #: uncertainty where the thesis gives one (else None: the issue's 10 % applies).
@@ -206,6 +209,21 @@ def anisotropy_summary(rundir: str | Path) -> dict[str, float]:
 
 
 # ----------------------------------------------------------------------------- collection
+#: psi0 error (rad) given to an X measured by a single replica, whose standard error is NaN.
+SINGLE_REPLICA_PSI0_ERR = 0.02
+
+
+def fit_psi0_means(X: np.ndarray, psi0: np.ndarray, psi0_err: np.ndarray) -> "Psi0Fit | None":
+    """Fig. 4.2's interpolation (:func:`~grainflow.analysis.jet.fit_psi0`) through replica
+    means of psi0 (:func:`_mean_by`), an X of one replica weighted with
+    SINGLE_REPLICA_PSI0_ERR; None with fewer than four X."""
+    from grainflow.analysis.jet import fit_psi0
+
+    if len(X) < 4:
+        return None
+    return fit_psi0(X, psi0, np.where(np.isfinite(psi0_err), psi0_err, SINGLE_REPLICA_PSI0_ERR))
+
+
 def _mean_by(keys: list[float], values: list[float]
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Replica mean and its standard error (replica spread / sqrt(n); a single replica's
@@ -337,7 +355,6 @@ class _Table:
 def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | None = None,
               n_workers: int | None = None, progress: str = "auto") -> Path:
     """Run (or continue) the jet study into ``out_dir`` and write ``out_dir/report.md``."""
-    from grainflow.analysis.jet import fit_psi0
     from grainflow.analysis.jet.rheology import (
         fit_divergence_2d,
         fit_friction_2d,
@@ -373,14 +390,12 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     at = [i for i, p in enumerate(sc.params) if float(p["jet.restitution"]) == 0.75]
     X, psi0, psi0_err = _mean_by([sc.summaries[i]["X"] for i in at],
                                  [sc.summaries[i]["psi0"] for i in at])
-    fit = fit_psi0(X, psi0, np.where(np.isfinite(psi0_err), psi0_err, 0.02)) \
-        if len(X) >= 4 else None
+    fit = fit_psi0_means(X, psi0, psi0_err)
     for name in ("C0", "C1", "C2"):
         table.add(name, getattr(fit, name, None), getattr(fit, f"{name}_err", None), sc.cpu)
     _, psi0_v, psi0_v_err = _mean_by([sc.summaries[i]["X"] for i in at],
                                      [sc.summaries[i]["psi0_velocity"] for i in at])
-    fit_v = fit_psi0(X, psi0_v, np.where(np.isfinite(psi0_v_err), psi0_v_err, 0.02)) \
-        if len(X) >= 4 else None
+    fit_v = fit_psi0_means(X, psi0_v, psi0_v_err)
     if len(X):
         plot_psi0(X, psi0, out / "psi0.png", psi0_err=psi0_err, fit=fit)
         plot_psi0(X, psi0_v, out / "psi0_velocity.png", psi0_err=psi0_v_err, fit=fit_v)

@@ -283,6 +283,13 @@ def _force_nN(value: Any) -> float:
 REGIME_NAMES = ("spray", "clustering", "droplets", "dripping")
 
 
+def regime_name(summary: dict[str, float]) -> str:
+    """The regime of a :func:`stream_summary` (which stores its index in REGIME_NAMES, or -1
+    for one the classifier did not name): its name, or "unclassified"."""
+    code = summary["regime"]
+    return REGIME_NAMES[int(code)] if 0 <= code < len(REGIME_NAMES) else "unclassified"
+
+
 def _profile(npz: Any, name: str, depth: str) -> Any:
     """A :class:`~grainflow.analysis.stream.DepthProfile` back from a run's
     ``stream_analysis.npz`` (means, errors and sample counts as :func:`stream_summary` saved
@@ -411,8 +418,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     e = np.array([float(p["stream.restitution"]) for p in ph.params])
     fc = np.array([_force_nN(p["stream.cohesion_force"]) for p in ph.params])
     summ = ph.summaries
-    regime = [REGIME_NAMES[int(s["regime"])] if 0 <= s["regime"] < 4 else "unclassified"
-              for s in summ]
+    regime = [regime_name(s) for s in summ]
     order = np.lexsort((fc, -e))
     base = StreamSection(**plan.stream)
     m = grain_mass(base)
@@ -572,7 +578,7 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
                   "| F_c (nN) | delta (nm) | <Z> at 4 cm | N peak | N_inf | regime |",
                   "|---|---|---|---|---|---|"]
         for p, s in zip(sh.params, sh.summaries):
-            name = REGIME_NAMES[int(s["regime"])] if 0 <= s["regime"] < 4 else "unclassified"
+            name = regime_name(s)
             delta = parse_quantity(p["stream.cohesion_range"], "length") * 1e9
             lines.append(f"| {_force_nN(p['stream.cohesion_force']):g} | {delta:g} | "
                          f"{s['Z_4cm']:.3g} | {s['N_peak']:.3g} | {s['N_inf']:.3g} | {name} |")

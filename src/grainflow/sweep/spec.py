@@ -213,10 +213,11 @@ class SweepSpec(BaseModel):
             node = get_dotted(self.base, self.seed_field)
         except KeyError:
             return
-        if node != 0 and node not in self.seed_values():
+        seeds = self.seed_values()
+        if node != 0 and node not in seeds:
             warnings.warn(
                 f"sweep {self.name!r}: the base config sets {self.seed_field} = {node!r}, but "
-                f"every point takes its seed from the sweep ({self.seed_values()}); to run "
+                f"every point takes its seed from the sweep ({seeds}); to run "
                 f"that realization set seed_start = {node!r} or seeds = [{node!r}]",
                 UserWarning, stacklevel=2)
 
