@@ -79,7 +79,7 @@ FULL = JetPlan(scatter_X=(0.4, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0
                rheo3d_phi=(0.3, 0.4, 0.45, 0.5, 0.8, 0.9), rheo3d_n=20_000,
                rheo3d_window=(50.0, 100.0), rheo2d_phi=(0.3, 0.5, 0.7, 0.8, 0.9),
                rheo2d_n=8000, rheo2d_window=(180.0, 300.0), replicas=10)
-REDUCED = JetPlan(scatter_X=(0.5, 0.8, 1.2, 1.6, 2.0, 2.5, 3.5, 5.0), scatter_e=(0.75,),
+REDUCED = JetPlan(scatter_X=(0.4, 0.5, 0.6, 0.8, 1.2, 1.6, 2.0, 2.5, 3.5, 5.0), scatter_e=(0.75,),
                   scatter_n=1200, scatter_duration=50.0,
                   aspect_ratios=(1.0, 1.5, 2.05, 4.0), aniso_n=3000, aniso_duration=100.0,
                   rheo3d_phi=(0.3, 0.5, 0.9),
@@ -87,7 +87,8 @@ REDUCED = JetPlan(scatter_X=(0.5, 0.8, 1.2, 1.6, 2.0, 2.5, 3.5, 5.0), scatter_e=
                   rheo2d_n=8000, rheo2d_window=(120.0, 200.0), replicas=3,
                   rheology_replicas=2,
                   reductions=("3 replicas per point (seed: 10); 2 for the rheology sweeps",
-                              "psi0(X) at e = 0.75 only, 8 targets, steady window t = 20-50",
+                              "psi0(X) at e = 0.75 only, 10 targets (X = 0.4-5), steady window "
+                              "t = 20-50",
                               "v2 at 4 aspect ratios (eps = 0, 0.38, 0.615, 0.88), 3,000 grains, "
                               "window t = 50-100",
                               "3D rheology: phi_tilde = 0.3, 0.5, 0.9; 10,000 grains, window "
