@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from grainflow import interrupt
 from grainflow.analysis.hopper import fit_beverloo
 from grainflow.studies.hopper_authors import (AUTHORS_FULL, AUTHORS_REDUCED, SIGMOID_KINDS,
                                               _sigmoids, collect, sweep_specs, three_fits)
@@ -84,4 +85,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interrupt.run(main)

@@ -22,6 +22,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
+from grainflow import interrupt
 from grainflow.analysis.jet.rheology import fit_divergence_2d, fit_friction_2d
 from grainflow.studies.jet_study import FULL, _fit_choices_lines, _layers_2d, sweep_specs
 from grainflow.studies.points import run_sweeps
@@ -66,4 +67,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interrupt.run(main)

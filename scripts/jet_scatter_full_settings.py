@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from grainflow import interrupt
 from grainflow.studies.jet_study import FULL, SEED, _mean_by, fit_psi0_means, sweep_specs
 from grainflow.studies.points import run_sweeps
 
@@ -60,4 +61,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interrupt.run(main)

@@ -8,10 +8,12 @@ Where Python cannot raise at all (the interrupt lands in a callback of its impor
 e.g. a module lock's weak-reference callback), it prints the exception as "ignored" with a
 traceback and goes on: :func:`install` keeps that quiet for the interrupts it recorded, and
 the program reports them once the imports are done.
-Runs replace these handlers with their own (checkpoint, then exit 130 / 143)."""
+Runs replace these handlers with their own (checkpoint, then exit 130 / 143).
+:func:`run` does the same for a script's ``main`` (the sweeps of ``scripts/``)."""
 
 import signal
 import sys
+from collections.abc import Callable
 from types import FrameType
 from typing import Any
 
@@ -44,3 +46,15 @@ def install() -> None:
 def received() -> bool:
     """True once an interrupt has arrived through :func:`install`'s handler."""
     return bool(_received)
+
+
+def run(main: Callable[[], object]) -> None:
+    """Run a script's ``main`` as the ``grainflow`` program runs a verb: Ctrl-C and SIGTERM
+    stop it (a sweep sets its running points back to pending and closes its workers, so a
+    rerun continues it), and the script exits 130 with one line, not a traceback."""
+    install()
+    try:
+        main()
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
