@@ -7,7 +7,9 @@ filled 6 mm high, t_c = 50 us, 0.45 s, the stream followed to 22 cm) restricted 
 chosen restitutions and cohesions, into OUT_DIR/phase (finished points are kept, and the
 full study run into the same OUT_DIR finds them done). ``--hopper-diameter``,
 ``--fill-height`` and ``--contact-time`` change one of the full plan's sizes back to the
-reduced plan's, to tell which reduction moves a number; such runs go into a sweep directory
+reduced plan's, to tell which reduction moves a number, and ``--cohesion-range`` changes the
+shell delta (NF in the seed; give ``--fc`` with it to hold F_c delta) and ``--dt-fraction``
+the time step; such runs go into a sweep directory
 named after the change (``OUT_DIR/phase-contact_time-100us``), because a point is named by
 its e and F_c only and the full study must not take them for its own.
 Prints each run's summary (:func:`grainflow.studies.stream_study.stream_summary`) and, for a
@@ -15,9 +17,12 @@ cohesive stream, its adjacent droplets' separation velocities against free fall 
 model's length L0 at the aperture, as the study's report gives them.
 
 Usage (one point on one thread, AMD EPYC: about 2.5-3 hours at the full plan's t_c = 50 us;
-5,985 s with ``--contact-time "100 us"`` while the other core was busy; docs/streams.md)::
+5,985 s with ``--contact-time "100 us"`` while the other core was busy; 1,100-2,500 s in the
+reduced hopper, ``--hopper-diameter "5 mm" --fill-height "3 mm"``; docs/streams.md)::
 
     python scripts/stream_full_point.py OUT_DIR [--e 0.88] [--fc 1000] [--contact-time "100 us"]
+        [--hopper-diameter "5 mm"] [--fill-height "3 mm"] [--cohesion-range "50 nm"]
+        [--dt-fraction 0.01]
 """
 
 from __future__ import annotations
@@ -27,11 +32,16 @@ from pathlib import Path
 
 import numpy as np
 
+from grainflow import interrupt
 from grainflow.analysis.stream import aperture_length
 from grainflow.studies.points import run_sweeps
 from grainflow.studies.stream_study import (FULL, _section, _tracked_separations, regime_name,
                                            sweep_specs)
 from grainflow.sweep import parse_sweep
+
+
+#: the [stream] fields a run may change from the full plan's, each naming its own sweep directory
+STREAM_FIELDS = ("hopper-diameter", "fill-height", "contact-time", "cohesion-range")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -41,19 +51,24 @@ def main(argv: list[str] | None = None) -> None:
                         help="restitutions (default 0.88)")
     parser.add_argument("--fc", type=float, nargs="+", default=[1000.0],
                         help="cohesion forces in nN (default 1000)")
-    for name in ("hopper-diameter", "fill-height", "contact-time"):
+    for name in STREAM_FIELDS:
         parser.add_argument(f"--{name}", default=None,
                             help=f"the [stream] table's {name.replace('-', '_')} with its "
                             "unit (default: the full plan's)")
+    parser.add_argument("--dt-fraction", type=float, default=None,
+                        help="time step as a fraction of t_c (default: the plan's 0.02)")
     args = parser.parse_args(argv)
     raw = sweep_specs(FULL)["phase"].model_dump()
     # a point is named by its e and F_c only: a run with a size changed goes into a sweep
     # directory of its own, which the full study (OUT_DIR/phase) never reads as its own
     sweep = "phase"
-    for name in ("hopper_diameter", "fill_height", "contact_time"):
+    for name in (field.replace("-", "_") for field in STREAM_FIELDS):
         if getattr(args, name) is not None:
             raw["base"]["stream"][name] = getattr(args, name)
             sweep += f"-{name}-{getattr(args, name)}".replace(" ", "")
+    if args.dt_fraction is not None:
+        raw["base"]["run"]["dt_fraction"] = args.dt_fraction
+        sweep += f"-dt_fraction-{args.dt_fraction:g}"
     raw["overrides"] = {"stream.restitution": list(args.e),
                         "stream.cohesion_force": [f"{f:g} nN" for f in args.fc]}
     delta = _section(raw["base"]).cohesion_range  # m
@@ -78,4 +93,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interrupt.run(main)
