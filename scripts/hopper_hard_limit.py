@@ -1,0 +1,76 @@
+"""The hopper study's hard-particle limit (seed 003, Fig. 10) at stiffnesses of our choosing,
+to tell whether the offset k still moves with E_sp where the study stops (docs/hopper_study.md:
+the drag limit's k is 2.6-2.75 with beta fixed at 1/2 at E_sp = 1e4-1e5, the seed's 3.4).
+
+Runs the study's ``hard2d`` sweep (:data:`grainflow.studies.hopper_authors.AUTHORS_FULL`: the
+authors' conventions, walls as stiff as the grains, ten of their widths) at each ``--E`` and
+``--lambdas`` into OUT_DIR/hard2d_E<E> (finished points are kept), then prints, per E_sp and
+lambda, Q(w) and the three fits the report gives: free, beta fixed as the paper fixed it, and
+the paper's bounded fit.
+
+Usage::
+
+    python scripts/hopper_hard_limit.py OUT_DIR [--E 1e4 1e5 1e6] [--lambdas inf]
+        [--duration 100] [--workers N]
+
+The time step follows the stiffest contact (dt ~ E_sp^-1/2): at 100 t0 a run takes about 33 s
+at 1e4, 80 s at 1e5 and 190 s at 1e6 on one thread (AMD EPYC); the default 30 runs take
+3,000 CPU-s, 25 minutes on 2 cores (docs/hopper_study.md, "The hard drag limit's k").
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from grainflow import interrupt
+from grainflow.studies.hopper_authors import (AUTHORS_FULL, collect, hard_name, sweep_specs,
+                                              three_fits)
+from grainflow.studies.points import run_sweeps
+from grainflow.sweep import parse_sweep
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--E", type=float, nargs="+", default=[1e4, 1e5, 1e6],
+                        help="E_sp = E_w of each series (study: 1e4 and 1e5)")
+    parser.add_argument("--lambdas", type=float, nargs="+", default=[math.inf],
+                        help="lambda values (study: 0 and inf)")
+    parser.add_argument("--duration", type=float, default=100.0,
+                        help="t0 of flow (reduced study 100, full 150)")
+    parser.add_argument("--widths", type=float, nargs="+",
+                        default=list(AUTHORS_FULL.widths_hard),
+                        help="w / sigma_avg (default: the full study's ten)")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="local dask workers (default: one per core)")
+    args = parser.parse_args(argv)
+    study = sweep_specs(AUTHORS_FULL)[hard_name(AUTHORS_FULL.hard_E_sp[0])].model_dump()
+    specs = {}
+    for E in args.E:  # the study's hard-limit sweep, walls as stiff as the grains
+        base = {**study["base"], "hopper": {**study["base"]["hopper"], "E_sp": E, "E_w": E},
+                "run": {**study["base"]["run"], "duration": args.duration}}
+        raw = {**study, "name": hard_name(E), "base": base,
+               "overrides": {"hopper.orifice_width": list(args.widths),
+                             "hopper.lam": list(args.lambdas)}}
+        specs[hard_name(E)] = parse_sweep(raw)
+    points = run_sweeps(specs, args.out, n_workers=args.workers, progress="plain")
+    for E in args.E:
+        name = hard_name(E)
+        print(f"== E_sp = E_w = {E:g}: {len(points[name].rundirs)} runs, "
+              f"{points[name].cpu:.0f} CPU-s")
+        for key, series in sorted(collect(args.out / name).items()):
+            lam = key[0]
+            print(f"lambda = {lam:g}: Q(w) " + ", ".join(
+                f"{w:g}: {q:.4g}" for w, q in sorted(zip(series.w, series.Q))))
+            if series.clogged:
+                print(f"   clogged at w = {sorted(series.clogged)}")
+            for kind, fit in three_fits(series, 2, lam).items():
+                print(f"   {kind:8s} beta = {fit.beta:.3f} ± {fit.beta_err:.3f}, "
+                      f"k = {fit.k:.2f} ± {fit.k_err:.2f}, C = {fit.C:.3g}, "
+                      f"chi2/dof = {fit.chi2 / max(fit.dof, 1):.2f}")
+
+
+if __name__ == "__main__":
+    interrupt.run(main)
