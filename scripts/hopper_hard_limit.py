@@ -21,6 +21,7 @@ at 1e4, 80 s at 1e5 and 190 s at 1e6 on one thread (AMD EPYC); the default 30 ru
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from pathlib import Path
 
@@ -46,14 +47,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=None,
                         help="local dask workers (default: one per core)")
     args = parser.parse_args(argv)
-    study = sweep_specs(AUTHORS_FULL)[hard_name(AUTHORS_FULL.hard_E_sp[0])].model_dump()
+    # the study's own hard-limit sweeps at these stiffnesses, widths and duration
+    plan = dataclasses.replace(AUTHORS_FULL, hard_E_sp=tuple(args.E),
+                               widths_hard=tuple(args.widths), duration_hard=args.duration)
+    study = sweep_specs(plan)
     specs = {}
-    for E in args.E:  # the study's hard-limit sweep, walls as stiff as the grains
-        base = {**study["base"], "hopper": {**study["base"]["hopper"], "E_sp": E, "E_w": E},
-                "run": {**study["base"]["run"], "duration": args.duration}}
-        raw = {**study, "name": hard_name(E), "base": base,
-               "overrides": {"hopper.orifice_width": list(args.widths),
-                             "hopper.lam": list(args.lambdas)}}
+    for E in args.E:
+        raw = study[hard_name(E)].model_dump()
+        raw["overrides"]["hopper.lam"]["values"] = list(args.lambdas)
         specs[hard_name(E)] = parse_sweep(raw)
     points = run_sweeps(specs, args.out, n_workers=args.workers, progress="plain")
     for E in args.E:
