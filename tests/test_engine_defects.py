@@ -210,6 +210,36 @@ def test_time_step_check_sees_kinetic_friction() -> None:
     assert sim.stable_time_step() == pytest.approx(1.25e-3 / 5)
 
 
+def test_time_step_check_warns_but_never_refuses_an_unresolved_cohesive_shell() -> None:
+    """The constant cohesion reports the time a pair leaving contact at its escape speed
+    u_e = sqrt(2 F_c delta / m_eff) takes to cross the shell, for grain pairs and for a
+    cohesive wall: a step past half of it warns (the step, not the law, then decides which
+    pairs stay bound) and is never refused, since nothing goes unstable; the automatic step
+    resolves it."""
+    sim = _one_grain(2e-3)  # t_c 0.22: dt = t_c / 111 is fine for the contact
+    law = sim.interactions[0].law
+    law.set_pair(0, 0, kn=1e2, cohesion_force=2.0, cohesion_range=1e-3)
+    crossing = 1e-3 / np.sqrt(2 * 2.0 * 1e-3 / 0.5)  # m_eff = 1/2: 0.0112
+    assert law.crossing_time(0, 0, 0.5) == pytest.approx(crossing)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.check_time_step()  # dt < crossing / 2
+    sim.dt = 8e-3
+    with pytest.warns(UserWarning, match=r"types \(0, 0\) / 2\): the step, not the law, "
+                                         r"decides which pairs stay bound"):
+        sim.check_time_step()
+    sim.dt = 0.05  # four crossing times; t_c / 4.4 is still within the refusal bound
+    with pytest.warns(UserWarning, match="crossing time 0.01118"):
+        sim.check_time_step()
+    assert sim.stable_time_step(0.05) == pytest.approx(crossing / 2)  # t_c / 20 = 0.011
+    law.set_pair(0, 1, kn=1e2, cohesion_force=2.0, cohesion_range=1e-4)
+    sim.add_force(WallForce([Plane((0, 0, 0), (0, 0, 1))], law, 1))
+    wall_crossing = 1e-4 / np.sqrt(2 * 2.0 * 1e-4 / 1.0)  # against the wall m_eff = m
+    assert min(s.time for s in sim.time_scales() if s.kind == "crossing") == \
+        pytest.approx(wall_crossing)
+    assert sim.stable_time_step(0.05) == pytest.approx(wall_crossing / 2)
+
+
 # ------------------------------------------------------------ centred exactly on a wall
 @pytest.mark.parametrize("wall, x, normal", [
     (Plane((0, 0, 0), (0, 0, 1)), [1.0, 2.0, 0.0], [0, 0, 1]),

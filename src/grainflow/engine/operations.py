@@ -168,8 +168,11 @@ class ObserverContext(_Clocked):
 @dataclass(frozen=True)
 class TimeScale:
     """A time an explicit step must resolve: an ``"oscillation"`` (half period of a contact
-    or spring; dt must stay well below it) or a ``"relaxation"`` (decay time of a velocity
-    by a dissipative force; dt must stay below it). ``source`` names the interaction."""
+    or spring; dt must stay well below it), a ``"relaxation"`` (decay time of a velocity
+    by a dissipative force; dt must stay below it) or a ``"crossing"`` (time a pair leaving
+    contact at its escape speed takes to cross a cohesive shell; past it the step, not the
+    law, decides which pairs stay bound, though nothing goes unstable). ``source`` names
+    the interaction."""
 
     time: float
     kind: str

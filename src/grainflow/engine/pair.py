@@ -175,8 +175,8 @@ class PairInteraction(Force):
         return None if self.law.cohesive else 0.0
 
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
-        """Contact time and kinetic relaxation time of every owned type pair present, with
-        the lightest and smallest particle of each type."""
+        """Contact time, kinetic relaxation time and cohesive crossing time of every owned
+        type pair present, with the lightest and smallest particle of each type."""
         st = ctx.state
         if st.n == 0:
             return []
@@ -196,6 +196,9 @@ class PairInteraction(Force):
                 tau = self.law.relaxation_time(a, b, meff)
                 if np.isfinite(tau):
                     out.append(TimeScale(tau, "relaxation", what))
+                crossing = self.law.crossing_time(a, b, meff)
+                if np.isfinite(crossing):
+                    out.append(TimeScale(crossing, "crossing", what))
         return out
 
     def _owns(self, a: int, b: int) -> bool:

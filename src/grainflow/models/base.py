@@ -230,3 +230,9 @@ class ContactLaw:
         """Relaxation time of a pair's relative velocity by the damping model's forces
         outside the normal dashpot (kinetic friction); inf if none."""
         return self.parts["damping"].relaxation_time(self.row(type_i, type_j), meff)
+
+    def crossing_time(self, type_i: int, type_j: int, meff: float) -> float:
+        """Time a pair that leaves contact at its escape speed takes to cross the cohesion
+        model's range (:meth:`~grainflow.models.submodel.CohesionModel.crossing_time`); inf
+        without cohesion."""
+        return self.parts["cohesion"].crossing_time(self.row(type_i, type_j), meff)

@@ -259,6 +259,14 @@ class CohesionModel(SubModel):
     touch: ClassVar[Any]
     gap_force: ClassVar[Any]
 
+    @classmethod
+    def crossing_time(cls, row: dict[str, float], meff: float) -> float:
+        """Time a pair of effective mass ``meff`` leaving contact at the slowest speed that
+        escapes the attraction takes to cross the range it acts in (for the time-step
+        check: the step must resolve it, or the step decides which pairs stay bound); inf
+        if the sub-model attracts nothing."""
+        return math.inf
+
 
 @dataclass(frozen=True)
 class Preset:

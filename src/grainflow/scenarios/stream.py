@@ -41,7 +41,6 @@ reports what changing them does.
 from __future__ import annotations
 
 import math
-import warnings
 from typing import Any
 
 import numpy as np
@@ -70,11 +69,6 @@ DEFAULT_LIST_CHECK = "relative"
 #: passed about 60 grains/ms in the 5 mm hopper, less than the 3 mm aperture's 95, and the
 #: hopper drained to half its N_h in 0.25 s (measured 2026-12-05; docs/streams.md).
 REFILL_SLAB = 6.0
-#: Most shells delta a pair at the capture velocity may cross in one step before the run warns
-#: that the shell is not resolved. The binary capture velocity at dt = 0.02 t_c, measured
-#: against (2/e) sqrt(F_c delta/m): -1.2 % at 0.14 shells a step, -2.5 % at 0.28, -16 % at 1.4
-#: (docs/streams.md, "Neither the NF stiffness nor the NF shell").
-SHELL_STEPS = 0.5
 
 
 class StreamSection(BaseModel):
@@ -214,7 +208,6 @@ def build_stream(section: StreamSection, *, seed: int = 0, dt: float | None = No
                      mu=section.mu, damping="mass", cohesion_force=0.0,
                      cohesion_range=section.cohesion_range)
     step = dt if dt is not None else dt_fraction * section.contact_time
-    _check_shell_resolved(section, step)
     if skin is None:
         skin = DEFAULT_SKIN * d
     sim = Simulation(state, step, law, skin=skin, sort_every=sort_every,
@@ -242,27 +235,6 @@ def build_stream(section: StreamSection, *, seed: int = 0, dt: float | None = No
                                                 hi=math.inf), outside=True),
                     section.delete_every)
     return sim
-
-
-def _check_shell_resolved(section: StreamSection, dt: float) -> None:
-    """Warn when a pair at the capture velocity v_c crosses more than :data:`SHELL_STEPS`
-    shells in one step: the cohesion then acts for too few steps to hold the pairs it
-    should, and the capture and the networks come out wrong (a 10 nm shell at dt = 2 us
-    gave a clustering stream where 50-100 nm gave droplets; docs/streams.md)."""
-    from grainflow.models.cohesion_constant import capture_velocity
-
-    if section.cohesion_force <= 0:
-        return
-    v_c = capture_velocity(section.cohesion_force, section.cohesion_range,
-                           grain_mass(section), section.restitution)
-    shells = v_c * dt / section.cohesion_range
-    if shells > SHELL_STEPS:
-        warnings.warn(
-            f"stream.cohesion_range: a pair at the capture velocity ({1e3 * v_c:.3g} mm/s) "
-            f"crosses {shells:.2g} shells of {1e9 * section.cohesion_range:.3g} nm in one step "
-            f"of {1e6 * dt:.3g} us, so the shell is not resolved (the capture comes out low); "
-            f"use a step below {1e6 * SHELL_STEPS * section.cohesion_range / v_c:.2g} us "
-            "(run.dt or run.dt_fraction) or a wider shell", stacklevel=3)
 
 
 def _build(config: Any) -> Any:

@@ -216,10 +216,15 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
 
 # --------------------------------------------------------------------- binary capture
 def measured_capture_velocity(restitution: float, cohesion_nN: float, delta_nm: float = 100.0,
-                              *, iterations: int = 10) -> tuple[float, float]:
+                              *, iterations: int = 10, contact_time: str | None = None,
+                              dt_fraction: float = 1 / 500,
+                              start_phase: float = 0.37) -> tuple[float, float]:
     """(measured, analytic) capture velocity of two of the study's grains: bisection on
     head-on collisions with the scenario's contact law (captured = the pair never leaves the
-    shell: it turns back inside it)."""
+    shell: it turns back inside it), at a step ``dt_fraction`` of the contact time (the
+    section's default unless ``contact_time``). ``start_phase``: the fraction of a step by
+    which the pair, starting a whole number of steps apart, misses touching at a step's end
+    (the capture at a coarse step depends on it)."""
     from grainflow.engine.simulation import Simulation
     from grainflow.frame import Box
     from grainflow.models.cohesion_constant import capture_velocity
@@ -227,22 +232,23 @@ def measured_capture_velocity(restitution: float, cohesion_nN: float, delta_nm: 
     from grainflow.scenarios.stream import StreamSection, grain_mass
     from grainflow.state import ParticleState
 
+    timing = {} if contact_time is None else {"contact_time": contact_time}
     s = StreamSection(restitution=restitution, cohesion_force=cohesion_nN * 1e-9,
-                      cohesion_range=delta_nm * 1e-9)
+                      cohesion_range=delta_nm * 1e-9, **timing)
     m = grain_mass(s)
     r = 0.5 * s.grain_diameter
     kn, gamma_n = s.contact_parameters()
     law = GranularLaw()
     law.set_all(kn=kn, kt=kn, gamma_n=gamma_n, gamma_t=gamma_n, mu=s.mu, damping="mass",
                 cohesion_force=s.cohesion_force, cohesion_range=s.cohesion_range)
-    dt = s.contact_time / 500
+    dt = s.contact_time * dt_fraction
 
     def captured(v: float) -> bool:
         """True if, after its first contact, the pair turns back towards each other inside
         the shell; False once it leaves the shell receding."""
         st = ParticleState(3, Box(lo=np.full(3, -1e-2), hi=np.full(3, 1e-2),
                                   periodic=(False,) * 3))
-        gap = 4.37 * v * dt
+        gap = (4.0 + start_phase) * v * dt
         st.add_particles(np.array([[-r - gap / 2, 0, 0], [r + gap / 2, 0, 0]]), r, mass=m,
                          v=np.array([[v / 2, 0, 0], [-v / 2, 0, 0]]))
         sim = Simulation(st, dt, law, skin=0.05 * r)
@@ -260,7 +266,7 @@ def measured_capture_velocity(restitution: float, cohesion_nN: float, delta_nm: 
                 elif approaching:
                     seen["outcome"] = True
         sim.add_observer(watch)
-        sim.run(int(50 * 500), until=lambda q: seen["outcome"] is not None)
+        sim.run(round(50 / dt_fraction), until=lambda q: seen["outcome"] is not None)
         if seen["outcome"] is None:
             raise RuntimeError(f"capture test at {v:g} m/s: neither captured nor escaped")
         return bool(seen["outcome"])

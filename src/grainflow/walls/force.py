@@ -414,8 +414,9 @@ class WallForce(Force):
         return float(ov.max()), float(rel[i]), i
 
     def time_scales(self, ctx: ForceContext) -> list[TimeScale]:
-        """Contact time (and kinetic relaxation time) of the lightest and smallest mobile
-        particle of each type the walls touch, against an infinitely heavy wall."""
+        """Contact time (and kinetic relaxation and cohesive crossing times) of the lightest
+        and smallest mobile particle of each type the walls touch, against an infinitely
+        heavy wall."""
         st = ctx.state
         mobile = ~st.frozen
         if not mobile.any():
@@ -433,4 +434,7 @@ class WallForce(Force):
             tau = self.law.relaxation_time(int(t), self.wall_type, m)
             if np.isfinite(tau):
                 out.append(TimeScale(tau, "relaxation", what))
+            crossing = self.law.crossing_time(int(t), self.wall_type, m)
+            if np.isfinite(crossing):
+                out.append(TimeScale(crossing, "crossing", what))
         return out
