@@ -442,6 +442,48 @@ def test_interrupted_point_resumes_from_its_checkpoint(tmp_path, scheduler, refe
     assert_same_final_state(reference, rundir)
 
 
+class SlowThenInterruptAt(InterruptAt):
+    """:class:`InterruptAt`, after spending ``pause`` seconds at step ``slow`` (so the
+    first attempt's segment costs at least that much before its checkpoint)."""
+
+    def __init__(self, step: int, slow: int, pause: float) -> None:
+        super().__init__(step)
+        self.slow, self.pause = slow, pause
+
+    def update(self, step: int, n: int, rate: float) -> None:
+        if step == self.slow:
+            import time
+
+            time.sleep(self.pause)
+        super().update(step, n, rate)
+
+
+def test_a_resumed_point_records_what_every_kept_segment_cost(tmp_path, scheduler):
+    """The catalog's wall_time of a resumed point counts the first attempt's segment up to
+    its checkpoint (0.6 s here, in a sleep), not only the resumed part; the point file and
+    a rerun of the analyses alone keep it."""
+    spec, point = one_point(TINY)
+    sweepdir = tmp_path / "sweep"
+    rundir = sweepdir / "runs" / point.point_id
+    with pytest.raises(RunInterrupted):
+        run_config(spec.point_config(point), rundir,
+                   progress=SlowThenInterruptAt(250, slow=120, pause=0.6))
+    (rundir / SUMMARY).unlink()  # as after kill -9 of the worker
+    assert run_sweep(spec, sweepdir, scheduler=scheduler, console=quiet()).ok
+    row = Catalog.in_dir(sweepdir).rows()[0]
+    total = json.loads((rundir / SUMMARY).read_text())["wall_time_s"]  # both segments
+    assert total >= 0.6
+    assert row.wall_time >= total
+    point_file = json.loads((rundir / "sweep_point.json").read_text())
+    assert point_file["run_wall_time"] >= total
+    # the run is complete: a new attempt (a new catalog) only runs the analyses, and still
+    # counts the run
+    for path in sweepdir.glob("catalog.sqlite*"):
+        path.unlink()
+    assert run_sweep(spec, sweepdir, scheduler=scheduler, console=quiet()).ok
+    assert Catalog.in_dir(sweepdir).rows()[0].wall_time >= total
+
+
 def test_finished_run_without_point_file_is_not_run_again(tmp_path, scheduler, reference):
     spec, point = one_point(TINY)
     sweepdir = tmp_path / "sweep"

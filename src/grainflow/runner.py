@@ -593,6 +593,13 @@ def checkpoint_step(path: Path) -> int | None:
         return int(plain["sim/step"])
 
 
+def checkpoint_wall_seconds(path: Path) -> float:
+    """Wall-clock seconds the run had spent, over all its segments, when it wrote the
+    checkpoint at ``path``; :class:`RunDirError` if it is damaged."""
+    with _checkpoint_archive(path) as (_, plain):
+        return float(plain["runner/wall_seconds"])
+
+
 @contextmanager
 def _checkpoint_archive(path: Path) -> Iterator[tuple[Any, dict[str, Any]]]:
     """The open archive of a checkpoint and its plain values; :class:`RunDirError` naming

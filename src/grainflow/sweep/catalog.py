@@ -36,7 +36,7 @@ CREATE TABLE IF NOT EXISTS points (
     status      TEXT NOT NULL CHECK (status IN ('pending', 'running', 'done', 'failed')),
     rundir      TEXT NOT NULL,              -- relative to the sweep directory
     summary     TEXT,                       -- JSON {name: number} from the analyses
-    wall_time   REAL,                       -- seconds spent by the last attempt
+    wall_time   REAL,                       -- seconds the result cost (all kept segments)
     error       TEXT,                       -- traceback or message of the last failure
     attempts    INTEGER NOT NULL DEFAULT 0, -- times a worker started this point
     worker      TEXT,

@@ -119,15 +119,21 @@ def run_point(task: PointTask) -> dict[str, Any]:
     If a previous attempt's runner already completed (its ``sweep_point.json`` is
     present), the simulation is not repeated and only the analyses run again.
     Otherwise a stale run directory left by an interrupted attempt is removed first.
+    The record's ``wall_time`` is what the point's result cost: this attempt, and the
+    seconds earlier attempts spent on the part of the run it kept (a resumed run's segments
+    before its checkpoint; a killed attempt's steps after its last checkpoint are computed
+    again, and counted once).
     """
     started = time.perf_counter()
     worker = _announce_start(task)
     rundir = Path(task.rundir)
     notes: list[str] = []
+    earlier = 0.0  # seconds earlier attempts spent on the part of the run this one keeps
     try:
-        if not _run_completed(rundir, task.point_id):
-            _run_or_resume(task, rundir, notes)
-            _write_point_file(rundir, task, time.perf_counter() - started)
+        earlier = _completed_run_seconds(rundir, task.point_id)
+        if earlier is None:
+            earlier = _run_or_resume(task, rundir, notes)
+            _write_point_file(rundir, task, earlier + time.perf_counter() - started)
         summary = run_analyses(rundir, task.analyses)
         status, error = "done", None
     except PointFailed as exc:  # an expected failure: its message says it all
@@ -143,7 +149,7 @@ def run_point(task: PointTask) -> dict[str, Any]:
         "status": status,
         "summary": summary,
         "error": error,
-        "wall_time": time.perf_counter() - started,
+        "wall_time": (earlier or 0.0) + time.perf_counter() - started,
         "worker": worker,
     }
 
@@ -152,8 +158,9 @@ class PointFailed(RuntimeError):
     """A point that cannot succeed as it is (recorded without a traceback)."""
 
 
-def _run_or_resume(task: PointTask, rundir: Path, notes: list[str]) -> None:
-    """Run the point, continuing what an earlier attempt left in ``rundir`` when possible.
+def _run_or_resume(task: PointTask, rundir: Path, notes: list[str]) -> float:
+    """Run the point, continuing what an earlier attempt left in ``rundir`` when possible;
+    return the seconds earlier attempts spent on the part of the run that is kept.
 
     With grainflow's own runner, an earlier attempt of the same configuration is
 
@@ -172,9 +179,12 @@ def _run_or_resume(task: PointTask, rundir: Path, notes: list[str]) -> None:
     """
     runner = resolve_callable(task.runner)
     if rundir.exists() and task.runner == DEFAULT_RUNNER:
+        from grainflow.runner import (CHECKPOINT, RunDirError, checkpoint_wall_seconds,
+                                      read_summary, resume_run)
+
         state, reason = _previous_attempt(rundir, task.config)
         if state == "finished":
-            return
+            return float((read_summary(rundir) or {}).get("wall_time_s") or 0.0)
         if state == "unstable":
             raise PointFailed(
                 f"an earlier attempt went unstable and is not resumed ({reason}); its run "
@@ -183,11 +193,10 @@ def _run_or_resume(task: PointTask, rundir: Path, notes: list[str]) -> None:
                 "point again unchanged"
             )
         if state == "resume":
-            from grainflow.runner import RunDirError, resume_run
-
             try:
+                earlier = checkpoint_wall_seconds(rundir / CHECKPOINT)
                 resume_run(rundir)
-                return
+                return earlier
             except RunDirError as exc:  # the checkpoint turned out to be unreadable
                 state, reason = "damaged", str(exc)
         if state == "damaged":
@@ -199,6 +208,7 @@ def _run_or_resume(task: PointTask, rundir: Path, notes: list[str]) -> None:
     if rundir.exists():
         shutil.rmtree(rundir)
     runner(copy.deepcopy(task.config), rundir)
+    return 0.0
 
 
 def _previous_attempt(rundir: Path, config: dict[str, Any]) -> tuple[str, str]:
@@ -293,11 +303,16 @@ def _announce_start(task: PointTask) -> str:
     return worker.address
 
 
-def _run_completed(rundir: Path, point_id: str) -> bool:
+def _completed_run_seconds(rundir: Path, point_id: str) -> float | None:
+    """The recorded cost of this point's run if an earlier attempt completed it (its point
+    file is there); None if the run is still to be done."""
     try:
-        return json.loads((rundir / POINT_FILE).read_text())["point_id"] == point_id
-    except (OSError, ValueError, KeyError):
-        return False
+        record = json.loads((rundir / POINT_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get("point_id") != point_id:
+        return None
+    return float(record.get("run_wall_time") or 0.0)
 
 
 def _write_point_file(rundir: Path, task: PointTask, run_wall_time: float) -> None:
