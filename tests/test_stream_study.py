@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import TINY_STREAM, one_thread
 from grainflow.studies import stream_study
 from grainflow.studies.stream_study import FULL, REDUCED, SEED, sweep_specs
 
@@ -56,6 +57,26 @@ def test_per_run_analysis_of_a_cohesionless_stream(tiny_stream_run: Path) -> Non
     assert 0 < summary["dz"] < 0.01
     saved = np.load(tiny_stream_run / "stream_analysis.npz")
     assert saved["network"].shape == saved["network_depth"].shape
+
+
+def test_a_blocked_aperture_is_named_as_such(tmp_path: Path) -> None:
+    """Grains held over the aperture by F_c = 49 weights (a bridge; the 3 mm aperture of the
+    reduced hopper blocked so at 5000 nN) leave no stream: the analysis says why and what to
+    change, instead of failing on an empty profile."""
+    from grainflow.runner import run_config
+
+    rundir = tmp_path / "run"
+    config = {"scenario": "stream", "dim": 3, "run": {"duration": 0.11, "seed": 3},
+              "output": {"thermo_every": 5000, "frames_every": 250, "checkpoint_every": 0,
+                         "snapshot": False},
+              "stream": {**TINY_STREAM, "cohesion_force": "5000 nN",
+                         "cohesion_range": "400 nm"}}
+    with one_thread():
+        run_config(config, rundir, progress="none")
+    with pytest.raises(ValueError, match=r"the aperture is blocked: no grain fell .* 5000 nN "
+                                         r"is 48.7 times a grain's weight .* Lower "
+                                         r"stream.cohesion_force"):
+        stream_study.stream_summary(rundir)
 
 
 def test_measured_capture_velocity_matches_the_analytic_form() -> None:

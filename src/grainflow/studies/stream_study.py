@@ -165,8 +165,10 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
     if len(frames) < 3:
         raise ValueError(f"{rundir}: fewer than 3 frames in the steady window; run longer")
     depth_range = (0.0, s.stream_depth)
-    speed = aperture_speed(frames)
     flow = outflow_steadiness(frames)
+    if flow.mean_rate == 0:
+        _blocked(rundir, s, frames)
+    speed = aperture_speed(frames)
     superficial = superficial_speed(frames, flow.mean_rate,
                                     aperture_diameter=s.aperture_diameter,
                                     hopper_diameter=s.hopper_diameter,
@@ -212,6 +214,27 @@ def stream_summary(rundir: str | Path) -> dict[str, float]:
             "regime": float(REGIME_NAMES.index(regime.regime))
             if regime.regime in REGIME_NAMES else -1.0,
             "frames": float(len(frames))}
+
+
+def _blocked(rundir: Path, s: Any, frames: list[Any]) -> None:
+    """Raise the reason a run has no stream to analyse: no grain fell through the aperture
+    in the whole window (a cohesive bridge holds over it)."""
+    from grainflow.scenarios.stream import GRAVITY, grain_mass
+
+    weight = grain_mass(s) * GRAVITY
+    if s.cohesion_force > 0:
+        why = (f"A bridge of cohesive grains holds over it: F_c = {1e9 * s.cohesion_force:.4g} "
+               f"nN is {s.cohesion_force / weight:.3g} times a grain's weight (the seed's "
+               f"streams flow up to 2000 nN, {2e-6 / weight:.2g} times it at d = 200 um). "
+               "Lower stream.cohesion_force or widen stream.aperture_diameter")
+    else:
+        why = ("Without cohesion a jam needs an aperture of a few grains: check "
+               "stream.aperture_diameter against stream.grain_diameter, and stream.open_time "
+               "against the run's duration")
+    raise ValueError(
+        f"{rundir}: the aperture is blocked: no grain fell one diameter below it between "
+        f"t = {frames[0].time:.3g} and {frames[-1].time:.3g} s, so there is no stream to "
+        f"analyse. {why}")
 
 
 # --------------------------------------------------------------------- binary capture
