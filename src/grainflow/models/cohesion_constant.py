@@ -66,7 +66,7 @@ class ConstantCohesion(CohesionModel):
     def crossing_time(cls, row: dict[str, float], meff: float) -> float:
         """``delta_c / u_e``, with ``u_e`` the :func:`escape_speed`. The error of a capture
         grows with ``u_e dt / delta_c`` whatever the restitution: head-on pairs of the
-        seed-000 grains whose contact starts at four points of a step are captured below
+        seed-000 grains whose contact starts at eight points of a step are captured below
         speeds that scatter by 1-2 % of the analytic at 0.12 and by 18-19 % at 1.24, at
         e = 0.88 and 0.40 alike, while the mean stays within 3 %
         (``scripts/stream_shell_resolution.py``, docs/streams.md)."""
