@@ -193,12 +193,7 @@ class PairInteraction(Force):
                 what = f"pair law {self.law.name}, types ({a}, {b})"
                 out.append(TimeScale(self.law.contact_time(a, b, meff, smallest[a] + smallest[b]),
                                      "oscillation", what))
-                tau = self.law.relaxation_time(a, b, meff)
-                if np.isfinite(tau):
-                    out.append(TimeScale(tau, "relaxation", what))
-                crossing = self.law.crossing_time(a, b, meff)
-                if np.isfinite(crossing):
-                    out.append(TimeScale(crossing, "crossing", what))
+                out += [TimeScale(t, kind, what) for kind, t in self.law.rate_times(a, b, meff)]
         return out
 
     def _owns(self, a: int, b: int) -> bool:

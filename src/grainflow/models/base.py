@@ -236,3 +236,11 @@ class ContactLaw:
         model's range (:meth:`~grainflow.models.submodel.CohesionModel.crossing_time`); inf
         without cohesion."""
         return self.parts["cohesion"].crossing_time(self.row(type_i, type_j), meff)
+
+    def rate_times(self, type_i: int, type_j: int, meff: float) -> list[tuple[str, float]]:
+        """The pair's times besides its contact time that a step must resolve, as
+        ``(kind, time)``: ``"relaxation"`` (:meth:`relaxation_time`) and ``"crossing"``
+        (:meth:`crossing_time`), each where it is finite."""
+        times = (("relaxation", self.relaxation_time(type_i, type_j, meff)),
+                 ("crossing", self.crossing_time(type_i, type_j, meff)))
+        return [(kind, t) for kind, t in times if math.isfinite(t)]

@@ -431,10 +431,6 @@ class WallForce(Force):
             what = f"walls (type {self.wall_type}) on particle type {t}"
             out.append(TimeScale(self.law.contact_time(int(t), self.wall_type, m, r),
                                  "oscillation", what))
-            tau = self.law.relaxation_time(int(t), self.wall_type, m)
-            if np.isfinite(tau):
-                out.append(TimeScale(tau, "relaxation", what))
-            crossing = self.law.crossing_time(int(t), self.wall_type, m)
-            if np.isfinite(crossing):
-                out.append(TimeScale(crossing, "crossing", what))
+            out += [TimeScale(time, kind, what)
+                    for kind, time in self.law.rate_times(int(t), self.wall_type, m)]
         return out
