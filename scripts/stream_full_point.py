@@ -9,7 +9,8 @@ full study run into the same OUT_DIR finds them done). ``--hopper-diameter``,
 ``--fill-height`` and ``--contact-time`` change one of the full plan's sizes back to the
 reduced plan's, to tell which reduction moves a number, and ``--cohesion-range`` changes the
 shell delta (NF in the seed; give ``--fc`` with it to hold F_c delta), ``--dt-fraction``
-the time step and ``--mu`` the Coulomb friction (NF); such runs go into a sweep directory
+the time step, ``--frames-every`` the steps between saved frames and ``--mu`` the Coulomb
+friction (NF); such runs go into a sweep directory
 named after the change (``OUT_DIR/phase-contact_time-100us``), because a point is named by
 its e and F_c only and the full study must not take them for its own.
 Prints each run's summary (:func:`grainflow.studies.stream_study.stream_summary`) and, for a
@@ -22,7 +23,7 @@ reduced hopper, ``--hopper-diameter "5 mm" --fill-height "3 mm"``; docs/streams.
 
     python scripts/stream_full_point.py OUT_DIR [--e 0.88] [--fc 1000] [--contact-time "100 us"]
         [--hopper-diameter "5 mm"] [--fill-height "3 mm"] [--cohesion-range "50 nm"]
-        [--dt-fraction 0.01] [--mu 0.1]
+        [--dt-fraction 0.01] [--mu 0.1] [--frames-every 100]
 """
 
 from __future__ import annotations
@@ -57,6 +58,9 @@ def main(argv: list[str] | None = None) -> None:
                             "unit (default: the full plan's)")
     parser.add_argument("--dt-fraction", type=float, default=None,
                         help="time step as a fraction of t_c (default: the plan's 0.02)")
+    parser.add_argument("--frames-every", type=int, default=None,
+                        help="steps between saved frames (default: the plan's 1000); the "
+                        "droplet tracker's frame interval")
     parser.add_argument("--mu", type=float, default=None,
                         help="Coulomb friction between grains and with the walls (default: "
                         "the [stream] table's 0.5; NF in the seed)")
@@ -72,6 +76,9 @@ def main(argv: list[str] | None = None) -> None:
     if args.dt_fraction is not None:
         raw["base"]["run"]["dt_fraction"] = args.dt_fraction
         sweep += f"-dt_fraction-{args.dt_fraction:g}"
+    if args.frames_every is not None:
+        raw["base"]["output"]["frames_every"] = args.frames_every
+        sweep += f"-frames_every-{args.frames_every}"
     if args.mu is not None:
         raw["base"]["stream"]["mu"] = args.mu
         sweep += f"-mu-{args.mu:g}"

@@ -240,6 +240,23 @@ def test_time_step_check_warns_but_never_refuses_an_unresolved_cohesive_shell() 
     assert sim.stable_time_step(0.05) == pytest.approx(wall_crossing / 2)
 
 
+def test_time_step_warning_names_every_tight_scale_and_the_users_line() -> None:
+    """A step too close to several time scales names each of them, the tightest first, and
+    the warning points at the line that called ``run``, not at grainflow's own code."""
+    sim = _one_grain(0.03)  # t_c / 15 = 0.0148 < dt: the contact is tight
+    law = sim.interactions[0].law
+    law.set_pair(0, 0, kn=1e2, cohesion_force=2.0, cohesion_range=1e-3)  # crossing / 2 = 0.0056
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sim.run(1)
+    tight = [w for w in caught if "is larger than" in str(w.message)]
+    assert len(tight) == 1
+    message = str(tight[0].message)
+    assert "crossing time 0.01118" in message and "oscillation time 0.222" in message
+    assert message.index("crossing time") < message.index("oscillation time")
+    assert tight[0].filename == __file__
+
+
 # ------------------------------------------------------------ centred exactly on a wall
 @pytest.mark.parametrize("wall, x, normal", [
     (Plane((0, 0, 0), (0, 0, 1)), [1.0, 2.0, 0.0], [0, 0, 1]),

@@ -20,8 +20,6 @@ Q0 = sigma_avg^d / t0. Results are frozen dataclasses holding read-only copies o
 from __future__ import annotations
 
 import math
-
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -31,6 +29,7 @@ from scipy.optimize import curve_fit
 
 from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.coarse_grain import _unit_up
+from grainflow.user_warnings import warn_user
 
 
 def _as_1d(name: str, values: ArrayLike) -> np.ndarray:
@@ -82,11 +81,10 @@ def mser_truncation(series: ArrayLike) -> int:
     spread = suffix_sq[d] - suffix_sum[d] ** 2 / m
     d_star = int(np.argmin(np.maximum(spread, 0.0) / m**2))
     if d_star == n // 2:
-        warnings.warn(
+        warn_user(
             "mser_truncation: the MSER minimum lies at half the record; the transient may last "
             "longer than the record, so run longer before trusting the steady-state mean",
             RuntimeWarning,
-            stacklevel=2,
         )
     return d_star
 

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import math
 import time as _time
-import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
@@ -55,6 +54,7 @@ from grainflow.kernels.health import ARRAY_OF_CODE, HEALTHY, TOO_FAST, scan_stat
 from grainflow.kernels.pair_loop import max_pair_overlap, max_relative_overlap
 from grainflow.models.base import ContactLaw
 from grainflow.state import ParticleState, speeds
+from grainflow.user_warnings import warn_user
 
 
 class InstabilityError(RuntimeError):
@@ -562,15 +562,15 @@ class Simulation:
                        f"{safe:g}")
             if not self.allow_unsafe_dt:
                 raise TimeStepError(message)
-            warnings.warn(message + "; running anyway (allow_unsafe_dt)", stacklevel=2)
+            warn_user(message + "; running anyway (allow_unsafe_dt)")
             return
-        tight = [s for s in scales if self.dt > s.time / WARN_RATIO[s.kind]]
+        tight = sorted((s for s in scales if self.dt > s.time / WARN_RATIO[s.kind]),
+                       key=lambda s: s.time / WARN_RATIO[s.kind])
         if tight:
-            s = min(tight, key=lambda s: s.time / WARN_RATIO[s.kind])
-            warnings.warn(f"dt = {self.dt:g} is larger than {s.time / WARN_RATIO[s.kind]:g} "
-                          f"({s.kind} time {s.time:g} of {s.source} / "
-                          f"{WARN_RATIO[s.kind]:g}): {TIGHT_EFFECT[s.kind]}; "
-                          f"dt <= {safe:g} is safer", stacklevel=2)
+            causes = "; ".join(
+                f"{s.time / WARN_RATIO[s.kind]:g} ({s.kind} time {s.time:g} of {s.source} / "
+                f"{WARN_RATIO[s.kind]:g}): {TIGHT_EFFECT[s.kind]}" for s in tight)
+            warn_user(f"dt = {self.dt:g} is larger than {causes}; dt <= {safe:g} is safer")
 
     def max_overlap(self) -> float:
         """Largest particle-particle or particle-wall overlap now."""

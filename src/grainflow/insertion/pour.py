@@ -11,7 +11,6 @@ per-particle array (wall histories included) follow.
 
 from __future__ import annotations
 
-import warnings
 from typing import Any, Sequence
 
 import numpy as np
@@ -20,6 +19,7 @@ from grainflow.engine.operations import Updater, UpdateContext
 from grainflow.insertion.random_fill import random_fill
 from grainflow.insertion.regions import Region, region_dim_check
 from grainflow.insertion.sizes import SizeDistribution
+from grainflow.user_warnings import warn_user
 
 
 class _Inserter(Updater):
@@ -177,11 +177,11 @@ class ReplenishTo(_Inserter):
             if (self.shortfall_warning is not None and not self._warned
                     and short > self.shortfall_warning * self.target):
                 self._warned = True
-                warnings.warn(
+                warn_user(
                     f"refill: {short} of the {self.target} grains kept in the count region are "
                     "missing and do not fit in the insertion region; it empties too slowly for "
                     "the outflow (give the added grains a downward velocity or a larger "
-                    "region)", RuntimeWarning, stacklevel=2)
+                    "region)", RuntimeWarning)
 
     def state_dict(self) -> dict[str, Any]:
         return {"inserted": self.inserted}

@@ -38,7 +38,6 @@ import getpass
 import io
 import os
 import time
-import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -53,6 +52,7 @@ from grainflow import __version__
 from grainflow.engine.simulation import InstabilityError
 from grainflow.frame import CONTACT_KINDS, PAIR, Box, Contacts, Frame
 from grainflow.io.aside import damaged_name, move_aside
+from grainflow.user_warnings import warn_user
 
 __all__ = ["DEFAULT_MAX_ROWS", "DamagedFileError", "NonFiniteFrameError", "TrajectoryWriter",
            "check_finite_frame", "count_frames", "max_rows_for", "read_frame", "read_frames",
@@ -436,8 +436,8 @@ def repair_frames(path: str | os.PathLike[str], resume_step: int | None = None) 
         tmp.unlink(missing_ok=True)
         damaged = move_aside(path)
         what = f"no whole frame could be salvaged; {path.name} will be started anew"
-    warnings.warn(f"repair_frames({path}): {what}; the damaged original is kept as {damaged}",
-                  RuntimeWarning, stacklevel=2)
+    warn_user(f"repair_frames({path}): {what}; the damaged original is kept as {damaged}",
+              RuntimeWarning)
     return kept
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ from grainflow.engine.operations import ObserverContext
 from grainflow.engine.simulation import InstabilityError
 from grainflow.io.aside import move_aside
 from grainflow.state import speeds
+from grainflow.user_warnings import warn_user
 
 __all__ = ["THERMO_COLUMNS", "ThermoLog"]
 
@@ -56,10 +56,10 @@ class ThermoLog:
         problem = _check_csv(path, resume_step) if resume_step is not None and path.is_file() else None
         if problem is not None:
             self.moved_aside = move_aside(path)
-            warnings.warn(
+            warn_user(
                 f"ThermoLog: {path} cannot be continued ({problem}); it was moved to "
                 f"{self.moved_aside} and a new {path.name} starts at step {resume_step}",
-                RuntimeWarning, stacklevel=2)
+                RuntimeWarning)
         #: Continuing an existing log: the resumed state is not logged again (the row the
         #: uninterrupted run would have there, if any, is already in the file).
         self._continues = resume_step is not None and problem is None and path.is_file()

@@ -17,12 +17,12 @@ run's simulation never holds the inflated radii: only the positions come back.
 
 from __future__ import annotations
 
-import warnings
 from typing import Any, Sequence
 
 import numpy as np
 
 from grainflow.engine.minimize import minimize_fire
+from grainflow.user_warnings import warn_user
 
 __all__ = ["AUTHORS_INFLATE", "inflated_packing", "uniform_positions"]
 
@@ -98,9 +98,9 @@ def inflated_packing(x: np.ndarray, radii: np.ndarray, types: np.ndarray,
     fire = minimize_fire(sim, overlap_tol=float("inf"), force_tol=FORCE_TOLERANCE * epsilon,
                          max_steps=MAX_FIRE_STEPS, dt_max_factor=FIRE_STEP_FACTOR)
     if not fire.converged:
-        warnings.warn(f"hopper: the inflated packing's FIRE stopped after {fire.steps} steps "
+        warn_user(f"hopper: the inflated packing's FIRE stopped after {fire.steps} steps "
                       f"with forces up to {fire.max_force:.3g} (tolerance "
                       f"{FORCE_TOLERANCE * epsilon:.3g}); the start is less even than the "
-                      "authors'", RuntimeWarning, stacklevel=2)
+                      "authors'", RuntimeWarning)
     return state.positions[np.argsort(state.arrays["id"])].copy()
 

@@ -29,7 +29,6 @@ import itertools
 import json
 import re
 import tomllib
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from collections.abc import Iterable
@@ -45,6 +44,8 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+
+from grainflow.user_warnings import warn_user
 
 DEFAULT_RUNNER = "grainflow.runner:run_config"
 _DOTTED_CALLABLE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
@@ -215,11 +216,11 @@ class SweepSpec(BaseModel):
             return
         seeds = self.seed_values()
         if node != 0 and node not in seeds:
-            warnings.warn(
+            warn_user(
                 f"sweep {self.name!r}: the base config sets {self.seed_field} = {node!r}, but "
                 f"every point takes its seed from the sweep ({seeds}); to run "
                 f"that realization set seed_start = {node!r} or seeds = [{node!r}]",
-                UserWarning, stacklevel=2)
+                UserWarning)
 
     def point_config(self, point: Point) -> dict[str, Any]:
         """The config a point runs: :meth:`Point.config` with relative file paths made
