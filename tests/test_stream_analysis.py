@@ -420,6 +420,44 @@ def test_separation_velocity_of_two_droplets():
     assert st.droplet_separations(tracks, min_points=11) == []
 
 
+def _pair(dz0: float, dv: float) -> st.DropletSeparation:
+    t = np.array([0.0, 1e-3, 2e-3])
+    return st.DropletSeparation(upper=0, lower=1, times=t, dz=dz0 + dv * t, velocity=dv,
+                                velocity_err=0.0, intercept=dz0, n_grains_mean=50.0, t0=0.0,
+                                dz0=dz0, predicted_velocity=float("nan"))
+
+
+def test_separation_gradient_recovers_the_aperture_speed_of_free_fall():
+    """Pairs that separate at the free-fall rate of their spacing for V = 0.115 m/s give the
+    seed's predicted gradient g d / V = 1.71 cm/s (d = 200 um), also at spacings where the
+    linearised form g dz0 / V is 40 % off; noise of 1 mm/s leaves it within its error."""
+    d, speed = 200e-6, 0.115
+    dz0 = np.linspace(0.2e-3, 6e-3, 12)  # 1-30 grain diameters
+    exact = np.sqrt(speed ** 2 + 2 * G * dz0) - speed
+    assert G * dz0[-1] / speed / exact[-1] > 1.4
+    fit = st.fit_separation_gradient([_pair(z, v) for z, v in zip(dz0, exact)],
+                                     grain_diameter=d)
+    assert fit.speed == pytest.approx(speed, rel=1e-6) and fit.pairs == 12
+    assert fit.gradient == pytest.approx(G * d / speed, rel=1e-6)
+    assert fit.gradient == pytest.approx(0.01706, rel=1e-3)
+    noise = np.random.default_rng(3).normal(0.0, 1e-3, dz0.size)
+    noisy = exact + noise
+    fit = st.fit_separation_gradient([_pair(z, v) for z, v in zip(dz0, noisy)]
+                                     + [_pair(float("nan"), 0.01), _pair(-1e-4, 0.01)],
+                                     grain_diameter=d)
+    assert fit.pairs == 12
+    assert abs(fit.gradient - G * d / speed) < 3 * fit.gradient_err
+    assert 0 < fit.gradient_err < 0.1 * fit.gradient
+    # one fitted parameter takes a little of the noise's rms
+    assert 0.8 * np.sqrt(np.mean(noise ** 2)) < fit.rms_residual <= np.sqrt(np.mean(noise ** 2))
+    with pytest.raises(ValueError, match="at least two pairs"):
+        st.fit_separation_gradient([_pair(1e-3, 0.01)], grain_diameter=d)
+    with pytest.raises(ValueError, match="no pair separates"):
+        st.fit_separation_gradient([_pair(1e-3, -0.01), _pair(2e-3, 0.0)], grain_diameter=d)
+    with pytest.raises(ValueError, match="grain_diameter"):
+        st.fit_separation_gradient([_pair(1e-3, 0.01)] * 2, grain_diameter=0.0)
+
+
 def test_tracking_ends_at_a_merge_and_survives_small_losses():
     left, right = ball(3, (0, 0, -0.25)), ball(3, (7.5 * D, 0, -0.25))
     apart = np.concatenate([left, right])

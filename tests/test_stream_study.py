@@ -37,7 +37,7 @@ def test_verdicts_use_thirty_percent_and_bounds() -> None:
     assert stream_study._verdict("N_inf, clustering (F_c < 100 nN)", 40.0, None)[1] == "misses"
     assert stream_study._verdict("most probable aspect ratio", None, None) == ("not measured",
                                                                                "—")
-    assert set(SEED) >= {"peak network size, droplets", "droplet separation velocity (cm/s)"}
+    assert set(SEED) >= {"peak network size, droplets", "separation gradient g d/V fitted to the droplet pairs (cm/s)"}
 
 
 def test_per_run_analysis_of_a_cohesionless_stream(tiny_stream_run: Path) -> None:
@@ -132,3 +132,31 @@ def test_toy_model_section_fits_sigma_and_draws_it(tmp_path: Path) -> None:
     one = _toy_model_section({0: lengths[0]}, np.full(3, 0.4), forces_nN, 200e-6,
                              tmp_path / "x", {})
     assert any("not made" in line for line in one)
+
+
+def test_separation_gradient_section_pools_the_streams_and_draws_the_fit(tmp_path: Path) -> None:
+    """The report's gradient pools every droplet stream's pairs (the seed's pairs collapse
+    whatever F_c) and compares g d / V with g d / v0 from the streams' own speeds."""
+    from grainflow.analysis.stream import GRAVITY, DropletSeparation
+    from grainflow.studies.stream_study import _separation_gradient_section
+
+    speed, d = 0.15, 200e-6
+    times = np.array([0.0, 1e-3, 2e-3])
+
+    def pair(dz0: float) -> DropletSeparation:
+        dv = math.sqrt(speed ** 2 + 2 * GRAVITY * dz0) - speed
+        return DropletSeparation(upper=0, lower=1, times=times, dz=dz0 + dv * times,
+                                 velocity=dv, velocity_err=1e-4, intercept=dz0,
+                                 n_grains_mean=80.0, t0=0.0, dz0=dz0,
+                                 predicted_velocity=dv)
+
+    lengths = {0: (None, [pair(1e-3), pair(2e-3)]), 2: (None, [pair(4e-3)])}
+    summaries = [{"v0": 0.16, "v0_superficial": 0.11}, {}, {"v0": 0.16, "v0_superficial": 0.11}]
+    fit, lines = _separation_gradient_section(lengths, d, summaries, tmp_path)
+    assert fit.pairs == 3 and fit.speed == pytest.approx(speed, rel=1e-6)
+    text = "\n".join(lines)
+    assert f"g d / V = {100 * GRAVITY * d / speed:.3g}" in text and "of 2 streams" in text
+    assert f"g d / v0 = {100 * GRAVITY * d / 0.16:.3g} cm/s" in text
+    assert (tmp_path / "separation_gradient.png").stat().st_size > 0
+    assert _separation_gradient_section({0: (None, [pair(1e-3)])}, d, summaries,
+                                        tmp_path) == (None, [])

@@ -2,7 +2,8 @@
 (Waitukaitis et al., PRE 83, 051302 (2011)): the normalised contact number Z/Z_0 and the
 network size N against depth (Fig. 6a-b), the axial and transverse velocity deviations against
 depth with the free-fall fit (Fig. 5), the droplet aspect-ratio histogram (Fig. 2c), the
-separation Delta z(t) of adjacent droplets with their linear fits (Fig. 3) and the phase
+separation Delta z(t) of adjacent droplets with their linear fits (Fig. 3), their separation
+velocities against their spacing at the aperture with the free-fall fit, and the phase
 diagram over (F_c, e) (Fig. 4).
 
 Each function takes data (the analyses' result objects or arrays) and a path, writes a PNG and
@@ -21,12 +22,14 @@ from numpy.typing import ArrayLike
 
 from grainflow.analysis.stream import (REGIMES, AspectHistogram, ContactProfiles, DepthProfile,
                                        DeviationProfiles, DropletSeparation, FreeFallFit,
-                                       NormalisedProfile, ProfileValue, ToyModelFit)
+                                       NormalisedProfile, ProfileValue, SeparationGradient,
+                                       ToyModelFit)
 from grainflow.frame import Frame
 from grainflow.plotting.figures import new_figure, save_figure
 
 __all__ = ["plot_contact_number", "plot_network_size", "plot_velocity_deviations",
-           "plot_aspect_histogram", "plot_droplet_separations", "plot_phase_diagram",
+           "plot_aspect_histogram", "plot_droplet_separations", "plot_separation_gradient",
+           "plot_phase_diagram",
            "plot_stream_side", "write_stream_movie", "plot_contact_vs_capture",
            "plot_toy_model"]
 
@@ -211,6 +214,45 @@ def plot_droplet_separations(
     ax.set_xlabel(r"$t - t_0$ [ms]" if shift else "$t$ [ms]")
     ax.set_ylabel(r"$\Delta z$ [mm]")
     ax.legend(fontsize=6, frameon=False)
+    return save_figure(fig, path)
+
+
+def plot_separation_gradient(
+    separations: Sequence[DropletSeparation],
+    fit: SeparationGradient,
+    path: str | Path,
+    *,
+    grain_diameter: float,
+) -> Path:
+    """Separation velocity Delta v of adjacent droplets against their spacing Delta z0 at the
+    aperture (in grain diameters), with the free-fall fit sqrt(V^2 + 2 g Delta z0) - V and
+    its slope at the origin, the gradient g d / V (seed 000, Sec. III: the collapse of the
+    pairs onto the free-fall profile)."""
+    items = _as_list("separations", list(separations) if not isinstance(
+        separations, DropletSeparation) else separations, (DropletSeparation,))
+    if not isinstance(fit, SeparationGradient):
+        raise ValueError(f"fit: expected a SeparationGradient, got {type(fit).__name__}")
+    if not grain_diameter > 0:
+        raise ValueError(f"grain_diameter: expected a positive diameter, got {grain_diameter!r}")
+    dz0 = np.array([s.dz0 for s in items], dtype=float)
+    dv = np.array([s.velocity for s in items], dtype=float)
+    err = np.array([s.velocity_err for s in items], dtype=float)
+    keep = np.isfinite(dz0) & (dz0 > 0) & np.isfinite(dv)
+    fig = new_figure(1, width=5.4, height=4.0)
+    ax = fig.subplots()
+    ax.errorbar(dz0[keep] / grain_diameter, dv[keep] * _CM,
+                yerr=np.where(np.isfinite(err[keep]), err[keep], 0.0) * _CM, fmt="o", ms=3,
+                lw=0.8, label=f"{int(keep.sum())} adjacent pairs")
+    top = max(float(dz0[keep].max()) if keep.any() else grain_diameter, grain_diameter)
+    line = np.linspace(0.0, top, 100)
+    ax.plot(line / grain_diameter, np.asarray(fit.predict(line)) * _CM, "-", color="k", lw=1,
+            label=rf"free fall, $V$ = {fit.speed * _CM:.3g} $\pm$ {fit.speed_err * _CM:.2g} cm/s")
+    ax.plot(line / grain_diameter, fit.gradient * line / grain_diameter * _CM, "--",
+            color="0.5", lw=1, label=rf"$g d / V$ = {fit.gradient * _CM:.3g} cm/s per $d$")
+    ax.set_xlabel(r"$\Delta z_0 / d$")
+    ax.set_ylabel(r"$\Delta v$ [cm/s]")
+    ax.set_xlim(left=0.0)
+    ax.legend(fontsize=7, frameon=False)
     return save_figure(fig, path)
 
 

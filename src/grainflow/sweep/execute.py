@@ -130,8 +130,10 @@ def run_point(task: PointTask) -> dict[str, Any]:
     notes: list[str] = []
     earlier = 0.0  # seconds earlier attempts spent on the part of the run this one keeps
     try:
-        earlier = _completed_run_seconds(rundir, task.point_id)
-        if earlier is None:
+        completed = _completed_run_seconds(rundir, task.point_id)
+        if completed is not None:
+            earlier = completed
+        else:
             earlier = _run_or_resume(task, rundir, notes)
             _write_point_file(rundir, task, earlier + time.perf_counter() - started)
         summary = run_analyses(rundir, task.analyses)
@@ -149,7 +151,7 @@ def run_point(task: PointTask) -> dict[str, Any]:
         "status": status,
         "summary": summary,
         "error": error,
-        "wall_time": (earlier or 0.0) + time.perf_counter() - started,
+        "wall_time": earlier + time.perf_counter() - started,
         "worker": worker,
     }
 

@@ -33,8 +33,9 @@ from grainflow.analysis.stream.droplets import (DEFAULT_AZIMUTH_BINS, SEED_EXCLU
                                                 SEED_MIN_DEPTH, SEED_MIN_GRAINS,
                                                 AspectHistogram, Droplet, DropletSelection,
                                                 DropletSeparation, DropletShape, DropletTrack,
-                                                aspect_ratio_histogram, droplet_separations,
-                                                droplet_shape, find_droplets,
+                                                SeparationGradient, aspect_ratio_histogram,
+                                                droplet_separations, droplet_shape,
+                                                find_droplets, fit_separation_gradient,
                                                 free_fall_separation_velocity, select_droplets,
                                                 track_droplets)
 from grainflow.analysis.stream.fluctuations import (SEED_DEVIATION_BIN, SEED_MIN_NEIGHBOURS,
