@@ -1,18 +1,24 @@
-"""Does the droplet tracker's answer depend on the interval between saved frames?
+"""Does the droplets' separation depend on the interval between saved frames, and on how the
+pairs are followed?
 
-A stream run with dt = 0.4 us and frames every 1000 steps (0.4 ms) gave droplet separation
-velocities of 15.8 +- 2.2 cm/s, where runs with frames 1-2 ms apart gave 7-11 (docs/streams.md).
-This script takes one run saved at a short frame interval and tracks its droplets on every
-k-th frame of the steady window, for each k given, so the frame interval is the only thing
-that changes: the same grains, the same droplets.
+The forward tracker (``track_droplets`` + ``droplet_separations``: droplets matched frame to
+frame by shared ids, each adjacent pair's line fitted where it was seen and carried back to
+the aperture) gave separation velocities of 15.8 +- 2.2 cm/s in a run with frames 0.4 ms
+apart and 7-11 in runs with frames 1-2 ms apart (docs/streams.md). This script takes one run
+saved at a short frame interval and, for every k-th frame of its steady window (for each k
+given), measures the separations both ways: forward-tracked, and traced back to the aperture
+by the grains of droplets paired in frames 10 ms apart below ``--min-depth``
+(``trace_droplet_pairs``, the seed's method and the study's). Same grains, same droplets;
+only the frame interval and the method change.
 
-For each interval it prints the number of adjacent pairs tracked, their separation velocity
-(mean and standard error) against the free-fall prediction, the length L0 at the aperture,
-and the pairs' time spans (how long each pair was followed).
+For each it prints the pairs, their separation velocity (mean with its standard error, and
+median; for traced pairs the initial one, Delta v0), the free-fall prediction at their own
+spacing, the gradient g d / V of the free-fall fit over the pairs (the seed's 1.4 cm/s),
+the length L0 at the aperture and the pairs' time spans.
 
 Usage::
 
-    python scripts/stream_frame_interval.py RUNDIR [--every 1 2 5 10] [--min-span 0]
+    python scripts/stream_frame_interval.py RUNDIR [--every 1 2 5 10] [--min-depth 0.05]
 
 RUNDIR is a point's run directory, e.g. one made by ``scripts/stream_full_point.py OUT
 --hopper-diameter "5 mm" --fill-height "3 mm" --contact-time "100 us" --frames-every 100``
@@ -26,44 +32,62 @@ from pathlib import Path
 
 import numpy as np
 
-from grainflow.analysis.stream import (aperture_length, aperture_speed, droplet_separations,
-                                       find_droplets, stream_grains, track_droplets)
-from grainflow.studies.stream_study import _window_frames
+from grainflow.analysis.stream import (aperture_speed, droplet_separations,
+                                       find_droplets, fit_separation_gradient, stream_grains,
+                                       trace_droplet_pairs, track_droplets)
+from grainflow.studies.stream_study import TRACE_EVERY, _window_frames
+
+
+def _row(method: str, interval: float, dz0: np.ndarray, dv: np.ndarray, pred: np.ndarray,
+         span: np.ndarray, d: float) -> str:
+    if dv.size == 0:
+        return f"| {method} | {interval:.3g} | 0 | | | | | | |"
+    spacing = dz0[np.isfinite(dz0) & (dz0 > 0)]  # as aperture_length takes them
+    try:
+        fit = fit_separation_gradient(dz0, dv, grain_diameter=d)
+        gradient = f"{100 * fit.gradient:.3g} ± {100 * fit.gradient_err:.2g}"
+    except ValueError as exc:
+        gradient = f"no fit ({exc})"
+    return (f"| {method} | {interval:.3g} | {dv.size} | {100 * dv.mean():.3g} ± "
+            f"{100 * dv.std() / np.sqrt(dv.size):.2g} | {100 * np.median(dv):.3g} | "
+            f"{100 * np.nanmean(pred):.3g} | {gradient} | {1e3 * spacing.mean():.3g} ± "
+            f"{1e3 * spacing.std(ddof=1) / np.sqrt(spacing.size):.2g} | {np.median(span):.3g} |")
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("rundir", type=Path)
     parser.add_argument("--every", type=int, nargs="+", default=[1, 2, 5, 10],
-                        help="track on every k-th frame of the window, for each k")
-    parser.add_argument("--min-span", type=float, default=0.0,
-                        help="also report only the pairs followed for at least this long (ms)")
+                        help="use every k-th frame of the window, for each k")
+    parser.add_argument("--min-depth", type=float, default=0.05,
+                        help="traced pairs: droplets deeper than this (m) when paired")
     args = parser.parse_args(argv)
     frames, section = _window_frames(args.rundir)
+    d = section.grain_diameter
     v0 = aperture_speed(frames).v0  # as the study's summary takes it
-    stream = [stream_grains(f) for f in frames]
-    droplets = [find_droplets(f, section.cohesion_range, min_grains=30) for f in stream]
-    interval = np.median(np.diff([f.time for f in frames]))
+    interval = float(np.median(np.diff([f.time for f in frames])))
     print(f"{len(frames)} frames {1e3 * interval:.3g} ms apart from t = {frames[0].time:.4g} s; "
           f"v0 = {100 * v0:.3g} cm/s")
-    print("| frame interval (ms) | pairs | separation velocity (cm/s) | free fall (cm/s) | "
-          "L0 (mm) | median span (ms) |")
-    print("|---|---|---|---|---|---|")
+    print("| method | frame interval (ms) | pairs | separation velocity (cm/s) | median (cm/s) | "
+          "free fall (cm/s) | g d / V of the fit (cm/s) | L0 (mm) | median span (ms) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for k in args.every:
-        seps = droplet_separations(track_droplets(droplets[::k]), v0=v0)
-        span = np.array([1e3 * np.ptp(s.times) for s in seps])
-        if args.min_span > 0:
-            seps = [s for s, t in zip(seps, span) if t >= args.min_span]
-            span = span[span >= args.min_span]
-        if not seps:
-            print(f"| {1e3 * k * interval:.3g} | 0 | | | | |")
-            continue
-        v = 100 * np.array([s.velocity for s in seps])
-        pred = 100 * np.array([s.predicted_velocity for s in seps])
-        length = aperture_length(seps)
-        print(f"| {1e3 * k * interval:.3g} | {len(seps)} | {v.mean():.3g} ± "
-              f"{v.std() / np.sqrt(v.size):.2g} | {np.nanmean(pred):.3g} | "
-              f"{1e3 * length.mean:.3g} ± {1e3 * length.err:.2g} | {np.median(span):.3g} |")
+        sub = frames[::k]
+        stream = [stream_grains(f) for f in sub]
+        seps = droplet_separations(track_droplets(
+            [find_droplets(f, section.cohesion_range, min_grains=30) for f in stream]), v0=v0)
+        print(_row("forward", 1e3 * k * interval, np.array([s.dz0 for s in seps]),
+                   np.array([s.velocity for s in seps]),
+                   np.array([s.predicted_velocity for s in seps]),
+                   np.array([1e3 * np.ptp(s.times) for s in seps]), d))
+        step = max(1, int(round(TRACE_EVERY / (k * interval))))
+        pairs = [p for p in trace_droplet_pairs(
+            sub, section.cohesion_range, identify=range(len(sub) - 1, -1, -step),
+            min_depth=args.min_depth, v0=v0) if np.isfinite(p.initial_velocity)]
+        print(_row("traced", 1e3 * k * interval, np.array([p.dz0 for p in pairs]),
+                   np.array([p.initial_velocity for p in pairs]),
+                   np.array([p.predicted_velocity for p in pairs]),
+                   np.array([1e3 * np.ptp(p.times) for p in pairs]), d))
 
 
 if __name__ == "__main__":

@@ -97,10 +97,11 @@ def main(argv: list[str] | None = None) -> None:
         if not seps:
             print("  no adjacent droplets tracked")
             continue
-        v = 100 * np.array([q.velocity for q in seps])
+        v = 100 * np.array([q.initial_velocity for q in seps])
         predicted = 100 * np.array([q.predicted_velocity for q in seps])
         length = aperture_length(seps)
-        print(f"  {len(seps)} adjacent pairs: separation velocity {v.mean():.3g} ± "
+        print(f"  {len(seps)} adjacent pairs traced to the aperture: initial separation "
+              f"velocity {v.mean():.3g} ± "
               f"{v.std() / np.sqrt(v.size):.2g} cm/s, free fall {np.nanmean(predicted):.3g} cm/s; "
               f"L0 = {1e3 * length.mean:.3g} ± {1e3 * length.err:.2g} mm ({length.pairs} pairs)")
 

@@ -420,13 +420,6 @@ def test_separation_velocity_of_two_droplets():
     assert st.droplet_separations(tracks, min_points=11) == []
 
 
-def _pair(dz0: float, dv: float) -> st.DropletSeparation:
-    t = np.array([0.0, 1e-3, 2e-3])
-    return st.DropletSeparation(upper=0, lower=1, times=t, dz=dz0 + dv * t, velocity=dv,
-                                velocity_err=0.0, intercept=dz0, n_grains_mean=50.0, t0=0.0,
-                                dz0=dz0, predicted_velocity=float("nan"))
-
-
 def test_separation_gradient_recovers_the_aperture_speed_of_free_fall():
     """Pairs that separate at the free-fall rate of their spacing for V = 0.115 m/s give the
     seed's predicted gradient g d / V = 1.71 cm/s (d = 200 um), also at spacings where the
@@ -435,15 +428,12 @@ def test_separation_gradient_recovers_the_aperture_speed_of_free_fall():
     dz0 = np.linspace(0.2e-3, 6e-3, 12)  # 1-30 grain diameters
     exact = np.sqrt(speed ** 2 + 2 * G * dz0) - speed
     assert G * dz0[-1] / speed / exact[-1] > 1.4
-    fit = st.fit_separation_gradient([_pair(z, v) for z, v in zip(dz0, exact)],
-                                     grain_diameter=d)
+    fit = st.fit_separation_gradient(dz0, exact, grain_diameter=d)
     assert fit.speed == pytest.approx(speed, rel=1e-6) and fit.pairs == 12
     assert fit.gradient == pytest.approx(G * d / speed, rel=1e-6)
     assert fit.gradient == pytest.approx(0.01706, rel=1e-3)
     noise = np.random.default_rng(3).normal(0.0, 1e-3, dz0.size)
-    noisy = exact + noise
-    fit = st.fit_separation_gradient([_pair(z, v) for z, v in zip(dz0, noisy)]
-                                     + [_pair(float("nan"), 0.01), _pair(-1e-4, 0.01)],
+    fit = st.fit_separation_gradient(np.r_[dz0, np.nan, -1e-4], np.r_[exact + noise, 0.01, 0.01],
                                      grain_diameter=d)
     assert fit.pairs == 12
     assert abs(fit.gradient - G * d / speed) < 3 * fit.gradient_err
@@ -451,11 +441,66 @@ def test_separation_gradient_recovers_the_aperture_speed_of_free_fall():
     # one fitted parameter takes a little of the noise's rms
     assert 0.8 * np.sqrt(np.mean(noise ** 2)) < fit.rms_residual <= np.sqrt(np.mean(noise ** 2))
     with pytest.raises(ValueError, match="at least two pairs"):
-        st.fit_separation_gradient([_pair(1e-3, 0.01)], grain_diameter=d)
+        st.fit_separation_gradient([1e-3], [0.01], grain_diameter=d)
     with pytest.raises(ValueError, match="no pair separates"):
-        st.fit_separation_gradient([_pair(1e-3, -0.01), _pair(2e-3, 0.0)], grain_diameter=d)
+        st.fit_separation_gradient([1e-3, 2e-3], [-0.01, 0.0], grain_diameter=d)
     with pytest.raises(ValueError, match="grain_diameter"):
-        st.fit_separation_gradient([_pair(1e-3, 0.01)] * 2, grain_diameter=0.0)
+        st.fit_separation_gradient([1e-3, 2e-3], [0.01, 0.02], grain_diameter=0.0)
+    with pytest.raises(ValueError, match="dv0"):
+        st.fit_separation_gradient([1e-3, 2e-3], [0.01], grain_diameter=d)
+
+
+def traced_frames(u=0.5, dv=0.03, dz_start=2e-3, n=101, dt=2e-3):
+    """Two balls (123 grains each) leaving the hopper: the upper one's centre at depth
+    -4 mm + u t, the lower one dz_start + dv t below it; a block of hopper grains above the
+    aperture; particles stored in a shuffled order; one grain of the upper ball missing from
+    the first frame (not yet inserted)."""
+    upper, lower = ball(3, (0, 0, 0)), ball(3, (0, 0, 0))
+    hopper = lattice((4, 4, 2), origin=(2e-3, 0, 1e-3))
+    n_ball = len(upper)
+    ids = np.arange(2 * n_ball + len(hopper))
+    frames = []
+    rng = np.random.default_rng(0)
+    for k in range(n):
+        t = k * dt
+        z_u = -4e-3 + u * t
+        pos = np.concatenate([upper + [0, 0, -z_u], lower + [0, 0, -(z_u + dz_start + dv * t)],
+                              hopper])
+        keep = np.ones(len(pos), bool)
+        keep[0] = k > 0
+        order = rng.permutation(np.flatnonzero(keep))
+        frames.append(make_frame(pos[order], ids=ids[order], time=t, step=k))
+    return frames
+
+
+def test_traced_pair_measures_the_spacing_and_velocity_at_the_aperture():
+    u, dv, dz_start = 0.5, 0.03, 2e-3
+    frames = traced_frames(u, dv, dz_start)
+    pairs = st.trace_droplet_pairs(frames, DELTA, identify=[-1, -2, 50], min_depth=0.05,
+                                   v0=u)
+    assert len(pairs) == 1  # found again in frame -2, and too shallow in frame 50 (2.3 cm)
+    p = pairs[0]
+    assert p.identified_at == pytest.approx(0.2) and p.n_grains_mean == 123
+    assert p.times.size == 100 and p.times[0] == pytest.approx(2e-3)  # frame 0 lacks a grain
+    assert np.allclose(p.dz, dz_start + dv * p.times, rtol=0, atol=1e-12)
+    # the pair's centre, -4 mm + dz_start/2 + (u + dv/2) t, crosses the aperture at t0
+    t0 = (4e-3 - dz_start / 2) / (u + dv / 2)
+    assert 4e-3 < t0 < 6e-3  # between frames
+    assert p.t0 == pytest.approx(t0, rel=1e-9)
+    assert p.dz0 == pytest.approx(dz_start + dv * t0, rel=1e-9)
+    assert p.initial_velocity == pytest.approx(dv, rel=1e-9)
+    assert p.final_velocity == pytest.approx(dv, rel=1e-9)
+    assert p.predicted_velocity == pytest.approx(np.sqrt(u ** 2 + 2 * G * p.dz0) - u)
+    assert st.aperture_length(pairs).mean == pytest.approx(p.dz0)
+    # the same pair seen only after it left the aperture: no t0, no initial velocity
+    late = st.trace_droplet_pairs(frames[6:], DELTA, min_depth=0.05, v0=u)[0]
+    assert np.isnan(late.t0) and np.isnan(late.initial_velocity)
+    assert late.final_velocity == pytest.approx(dv, rel=1e-9)
+    assert st.trace_droplet_pairs(frames, DELTA, min_depth=0.2) == []
+    with pytest.raises(ValueError, match="identify"):
+        st.trace_droplet_pairs(frames, DELTA, identify=[101])
+    with pytest.raises(ValueError, match="increasing time"):
+        st.trace_droplet_pairs(frames[::-1], DELTA)
 
 
 def test_tracking_ends_at_a_merge_and_survives_small_losses():
@@ -582,6 +627,15 @@ def test_plots_write_pngs(tmp_path):
     tracks = st.track_droplets([st.find_droplets(f, DELTA) for f in pair_frames(0.014, n=4)])
     check_png(sp.plot_droplet_separations(st.droplet_separations(tracks, v0=0.1),
                                           tmp_path / "sep.png"))
+    traced = st.trace_droplet_pairs(traced_frames(n=40), DELTA, min_depth=0.01, v0=0.5)
+    check_png(sp.plot_traced_pairs(traced, tmp_path / "traced.png"))
+    dz0 = np.array([2e-4, 5e-4, 1e-3])
+    fit = st.fit_separation_gradient(dz0, np.sqrt(0.01 + 2 * G * dz0) - 0.1, grain_diameter=D)
+    check_png(sp.plot_separation_gradient(dz0, np.sqrt(0.01 + 2 * G * dz0) - 0.1, fit,
+                                          tmp_path / "gradient.png", grain_diameter=D))
+    with pytest.raises(ValueError, match="t0 is NaN"):
+        sp.plot_traced_pairs(st.trace_droplet_pairs(traced_frames(n=40)[6:], DELTA,
+                                                    min_depth=0.01), tmp_path / "x.png")
     check_png(sp.plot_phase_diagram([0, 1e-9, 1e-7, 1e-6, 3e-6], [0.9, 0.88, 0.4, 0.4, 0.4],
                                     [0.1, 0.5, 2.0, np.nan, 4.0],
                                     ["spray", "clustering", "droplets", "droplets",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -112,22 +113,31 @@ def test_crossover_brackets_per_restitution() -> None:
     assert stream_study._crossovers(e, fc, regime) == {0.4: (30.0, 300.0), 0.88: (30.0, 1000.0)}
 
 
+def _traced(dz0: float, dv0: float) -> Any:
+    from grainflow.analysis.stream import TracedPair
+
+    times = np.array([0.0, 1e-3, 2e-3])
+    return TracedPair(upper_ids=np.arange(30), lower_ids=np.arange(30, 60), identified_at=0.3,
+                      times=times, dz=dz0 + dv0 * times, centre_depth=0.1 * times - 1e-4,
+                      t0=1e-3, dz0=dz0, initial_velocity=dv0, initial_velocity_err=1e-4,
+                      final_velocity=dv0, final_velocity_err=1e-4, n_grains_mean=80.0,
+                      predicted_velocity=dv0)
+
+
 def test_toy_model_section_fits_sigma_and_draws_it(tmp_path: Path) -> None:
-    from grainflow.analysis.stream import ApertureLength, DropletSeparation
+    from grainflow.analysis.stream import ApertureLength
     from grainflow.studies.stream_study import _toy_model_section
 
     sigma = 2.0  # N/m^2
     forces_nN = np.array([300.0, 1000.0, 2000.0])
-    times = np.array([0.0, 1e-3, 2e-3])
-    sep = DropletSeparation(upper=0, lower=1, times=times, dz=1e-3 + 0.014 * times,
-                            velocity=0.014, velocity_err=1e-3, intercept=1e-3,
-                            n_grains_mean=80.0, t0=-0.1, dz0=3e-4, predicted_velocity=0.017)
+    sep = _traced(3e-4, 0.014)
     lengths = {k: (ApertureLength(math.sqrt(f * 1e-9 / sigma), 2e-5, 3), [sep, sep])
                for k, f in enumerate(forces_nN)}
     text = "\n".join(_toy_model_section(lengths, np.full(3, 0.4), forces_nN, 200e-6,
                                         tmp_path, {0.4: (30.0, 300.0)}))
     assert "Sigma = 2e+03" in text and "F* = Sigma d^2 = 80 nN" in text
     assert "30-300 nN at e = 0.4" in text and "| 0.4 | 1000 | 3 |" in text
+    assert "| 1.4 ± 0 |" in text  # the pairs' initial separation velocity, cm/s
     assert (tmp_path / "toy_model.png").stat().st_size > 0
     one = _toy_model_section({0: lengths[0]}, np.full(3, 0.4), forces_nN, 200e-6,
                              tmp_path / "x", {})
@@ -135,20 +145,16 @@ def test_toy_model_section_fits_sigma_and_draws_it(tmp_path: Path) -> None:
 
 
 def test_separation_gradient_section_pools_the_streams_and_draws_the_fit(tmp_path: Path) -> None:
-    """The report's gradient pools every droplet stream's pairs (the seed's pairs collapse
-    whatever F_c) and compares g d / V with g d / v0 from the streams' own speeds."""
-    from grainflow.analysis.stream import GRAVITY, DropletSeparation
+    """The report's gradient pools every droplet stream's traced pairs (the seed's pairs
+    collapse whatever F_c) and compares g d / V with g d / v0 from the streams' own
+    speeds."""
+    from grainflow.analysis.stream import GRAVITY
     from grainflow.studies.stream_study import _separation_gradient_section
 
     speed, d = 0.15, 200e-6
-    times = np.array([0.0, 1e-3, 2e-3])
 
-    def pair(dz0: float) -> DropletSeparation:
-        dv = math.sqrt(speed ** 2 + 2 * GRAVITY * dz0) - speed
-        return DropletSeparation(upper=0, lower=1, times=times, dz=dz0 + dv * times,
-                                 velocity=dv, velocity_err=1e-4, intercept=dz0,
-                                 n_grains_mean=80.0, t0=0.0, dz0=dz0,
-                                 predicted_velocity=dv)
+    def pair(dz0: float) -> Any:
+        return _traced(dz0, math.sqrt(speed ** 2 + 2 * GRAVITY * dz0) - speed)
 
     lengths = {0: (None, [pair(1e-3), pair(2e-3)]), 2: (None, [pair(4e-3)])}
     summaries = [{"v0": 0.16, "v0_superficial": 0.11}, {}, {"v0": 0.16, "v0_superficial": 0.11}]

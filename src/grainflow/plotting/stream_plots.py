@@ -2,8 +2,9 @@
 (Waitukaitis et al., PRE 83, 051302 (2011)): the normalised contact number Z/Z_0 and the
 network size N against depth (Fig. 6a-b), the axial and transverse velocity deviations against
 depth with the free-fall fit (Fig. 5), the droplet aspect-ratio histogram (Fig. 2c), the
-separation Delta z(t) of adjacent droplets with their linear fits (Fig. 3), their separation
-velocities against their spacing at the aperture with the free-fall fit, and the phase
+separation Delta z(t) of adjacent droplets (forward-tracked with their linear fits, or traced
+back to the aperture by their grains: Fig. 3), their separation velocities against their
+spacing at the aperture with the free-fall fit, and the phase
 diagram over (F_c, e) (Fig. 4).
 
 Each function takes data (the analyses' result objects or arrays) and a path, writes a PNG and
@@ -23,12 +24,13 @@ from numpy.typing import ArrayLike
 from grainflow.analysis.stream import (REGIMES, AspectHistogram, ContactProfiles, DepthProfile,
                                        DeviationProfiles, DropletSeparation, FreeFallFit,
                                        NormalisedProfile, ProfileValue, SeparationGradient,
-                                       ToyModelFit)
+                                       ToyModelFit, TracedPair)
 from grainflow.frame import Frame
 from grainflow.plotting.figures import new_figure, save_figure
 
 __all__ = ["plot_contact_number", "plot_network_size", "plot_velocity_deviations",
-           "plot_aspect_histogram", "plot_droplet_separations", "plot_separation_gradient",
+           "plot_aspect_histogram", "plot_droplet_separations", "plot_traced_pairs",
+           "plot_separation_gradient",
            "plot_phase_diagram",
            "plot_stream_side", "write_stream_movie", "plot_contact_vs_capture",
            "plot_toy_model"]
@@ -217,40 +219,71 @@ def plot_droplet_separations(
     return save_figure(fig, path)
 
 
+def plot_traced_pairs(
+    pairs: Sequence[TracedPair],
+    path: str | Path,
+    *,
+    max_pairs: int = 12,
+) -> Path:
+    """Vertical distance Delta z between the centres of mass of adjacent droplets' grains
+    against t - t0, t0 when the pair's centre passes the aperture (seed 000, Sec. III: the
+    droplets accelerate apart in the hopper, leave the aperture at Delta v0 and then separate
+    at a nearly constant rate), with each pair's initial slope. Pairs without t0 are left
+    out; at most ``max_pairs`` are drawn."""
+    items = [p for p in _as_list("pairs", list(pairs) if not isinstance(pairs, TracedPair)
+                                 else pairs, (TracedPair,)) if np.isfinite(p.t0)]
+    if max_pairs < 1:
+        raise ValueError(f"max_pairs: expected >= 1, got {max_pairs!r}")
+    if not items:
+        raise ValueError("pairs: none passes the aperture within the frames (every t0 is NaN)")
+    fig = new_figure(1, width=5.4, height=4.0)
+    ax = fig.subplots()
+    for k, p in enumerate(items[:max_pairs]):
+        c = f"C{k % 10}"
+        t = np.asarray(p.times) - p.t0
+        ax.plot(t * 1e3, np.asarray(p.dz) * 1e3, "-", color=c, lw=1,
+                label=rf"$\Delta v_0$ = {p.initial_velocity * _CM:.3g} cm/s")
+    ax.axvline(0.0, color="0.5", lw=0.8, ls=":")
+    ax.set_xlabel(r"$t - t_0$ [ms] (pair's centre at the aperture at 0)")
+    ax.set_ylabel(r"$\Delta z$ [mm]")
+    ax.legend(fontsize=6, frameon=False)
+    return save_figure(fig, path)
+
+
 def plot_separation_gradient(
-    separations: Sequence[DropletSeparation],
+    dz0: ArrayLike,
+    dv0: ArrayLike,
     fit: SeparationGradient,
     path: str | Path,
     *,
     grain_diameter: float,
 ) -> Path:
-    """Separation velocity Delta v of adjacent droplets against their spacing Delta z0 at the
+    """Separation velocity Delta v0 of adjacent droplets against their spacing Delta z0 at the
     aperture (in grain diameters), with the free-fall fit sqrt(V^2 + 2 g Delta z0) - V and
-    its slope at the origin, the gradient g d / V (seed 000, Sec. III: the collapse of the
-    pairs onto the free-fall profile)."""
-    items = _as_list("separations", list(separations) if not isinstance(
-        separations, DropletSeparation) else separations, (DropletSeparation,))
+    its slope at the origin, the gradient g d / V (seed 000, Sec. III: the pairs collapse
+    onto the free-fall profile)."""
+    z = np.asarray(dz0, dtype=float)
+    v = np.asarray(dv0, dtype=float)
+    if z.ndim != 1 or v.shape != z.shape:
+        raise ValueError(f"dv0: expected shape {z.shape} like dz0 (1-D), got {v.shape}")
     if not isinstance(fit, SeparationGradient):
         raise ValueError(f"fit: expected a SeparationGradient, got {type(fit).__name__}")
     if not grain_diameter > 0:
         raise ValueError(f"grain_diameter: expected a positive diameter, got {grain_diameter!r}")
-    dz0 = np.array([s.dz0 for s in items], dtype=float)
-    dv = np.array([s.velocity for s in items], dtype=float)
-    err = np.array([s.velocity_err for s in items], dtype=float)
-    keep = np.isfinite(dz0) & (dz0 > 0) & np.isfinite(dv)
+    keep = np.isfinite(z) & (z > 0) & np.isfinite(v)
+    if not keep.any():
+        raise ValueError("dz0: no pair with a finite, positive spacing to draw")
     fig = new_figure(1, width=5.4, height=4.0)
     ax = fig.subplots()
-    ax.errorbar(dz0[keep] / grain_diameter, dv[keep] * _CM,
-                yerr=np.where(np.isfinite(err[keep]), err[keep], 0.0) * _CM, fmt="o", ms=3,
-                lw=0.8, label=f"{int(keep.sum())} adjacent pairs")
-    top = max(float(dz0[keep].max()) if keep.any() else grain_diameter, grain_diameter)
-    line = np.linspace(0.0, top, 100)
+    ax.plot(z[keep] / grain_diameter, v[keep] * _CM, "o", ms=3,
+            label=f"{int(keep.sum())} adjacent pairs")
+    line = np.linspace(0.0, float(z[keep].max()), 100)
     ax.plot(line / grain_diameter, np.asarray(fit.predict(line)) * _CM, "-", color="k", lw=1,
             label=rf"free fall, $V$ = {fit.speed * _CM:.3g} $\pm$ {fit.speed_err * _CM:.2g} cm/s")
     ax.plot(line / grain_diameter, fit.gradient * line / grain_diameter * _CM, "--",
             color="0.5", lw=1, label=rf"$g d / V$ = {fit.gradient * _CM:.3g} cm/s per $d$")
     ax.set_xlabel(r"$\Delta z_0 / d$")
-    ax.set_ylabel(r"$\Delta v$ [cm/s]")
+    ax.set_ylabel(r"$\Delta v_0$ [cm/s]")
     ax.set_xlim(left=0.0)
     ax.legend(fontsize=7, frameon=False)
     return save_figure(fig, path)

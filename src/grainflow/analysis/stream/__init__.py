@@ -18,6 +18,10 @@ hopper); grains are monodisperse spheres of type 0; walls are analytic (no wall 
   principal-axis length, width and aspect ratio, the seed's selection, the aspect-ratio
   histogram, tracking by shared ids, separation velocities of adjacent droplets and the
   free-fall prediction sqrt(v0^2 + 2 g dz0) - v0.
+* :mod:`~grainflow.analysis.stream.traced_pairs` (A7, the seed's method): adjacent droplets
+  followed back by their grains' ids to the aperture, their spacing there and initial and
+  final separation velocities, and the free-fall fit whose gradient g d / V is the seed's
+  1.4 cm/s.
 * :mod:`~grainflow.analysis.stream.toy_model` (seed 000, Sec. IV): the droplet length scale
   at the aperture, L0, from the tracked separations, and the fit L0 = (F_c / Sigma)^(1/2).
 * :mod:`~grainflow.analysis.stream.regimes` (A7): spray / clustering / droplets / dripping from
@@ -33,9 +37,8 @@ from grainflow.analysis.stream.droplets import (DEFAULT_AZIMUTH_BINS, SEED_EXCLU
                                                 SEED_MIN_DEPTH, SEED_MIN_GRAINS,
                                                 AspectHistogram, Droplet, DropletSelection,
                                                 DropletSeparation, DropletShape, DropletTrack,
-                                                SeparationGradient, aspect_ratio_histogram,
-                                                droplet_separations, droplet_shape,
-                                                find_droplets, fit_separation_gradient,
+                                                aspect_ratio_histogram, droplet_separations,
+                                                droplet_shape, find_droplets,
                                                 free_fall_separation_velocity, select_droplets,
                                                 track_droplets)
 from grainflow.analysis.stream.fluctuations import (SEED_DEVIATION_BIN, SEED_MIN_NEIGHBOURS,
@@ -59,6 +62,8 @@ from grainflow.analysis.stream.networks import (SEED_CONTACT_BIN, SEED_NETWORK_B
 from grainflow.analysis.stream.regimes import (REGIMES, OutflowSteadiness, RegimeDecision,
                                                RegimeThresholds, classify_regime,
                                                outflow_steadiness)
+from grainflow.analysis.stream.traced_pairs import (SeparationGradient, TracedPair,
+                                                    fit_separation_gradient, trace_droplet_pairs)
 from grainflow.analysis.stream.toy_model import (ApertureLength, ToyModelFit, aperture_length,
                                                  fit_toy_model, gradient_kinetic_energy)
 
@@ -83,7 +88,8 @@ __all__ = [
     "DropletShape", "droplet_shape", "Droplet", "find_droplets", "DropletSelection",
     "select_droplets", "AspectHistogram", "aspect_ratio_histogram", "DropletTrack",
     "track_droplets", "DropletSeparation", "droplet_separations",
-    "free_fall_separation_velocity",
+    "free_fall_separation_velocity", "TracedPair", "trace_droplet_pairs",
+    "SeparationGradient", "fit_separation_gradient",
     # toy model
     "ApertureLength", "aperture_length", "ToyModelFit", "fit_toy_model",
     "gradient_kinetic_energy",

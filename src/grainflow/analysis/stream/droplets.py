@@ -67,29 +67,15 @@ and Delta z0, the separation when the pair's centre passed the aperture, is esti
 v0 is given) by assuming free fall of the pair's centre from the aperture: the time since the
 crossing of a centre at depth h is (sqrt(v0^2 + 2 g h) - v0) / g; t0 is the mean of the
 crossing times so obtained, and Delta z0 the fitted line at t0.
-
-Separation gradient (:func:`fit_separation_gradient`, seed 000 Sec. III, the figure of
-Delta v0 against F_c, pair size and Delta z0, panel (c)). The seed collapses the pairs'
-Delta v0 against their Delta z0 and fits the free-fall form: "the fit yields 1.4 cm/s,
-reasonably close to the value 1.7 cm/s predicted from just the free-fall velocity profile".
-A number that the free-fall profile predicts without the droplets' spacings is the velocity
-difference across one grain diameter at the aperture, g d / v0 (PARAMETERS.md infers
-v0 = 11.5 cm/s from 1.7 cm/s and d = 200 um): the 1.4 cm/s is the fitted gradient, not a
-mean separation velocity. Here the pairs' (Delta z0, Delta v) are fitted by
-Delta v = sqrt(V^2 + 2 g Delta z0) - V with V free (unweighted least squares; the exact form,
-since our spacings are not small against v0^2 / 2g), and the gradient is
-A = g d / V, the fit's slope at Delta z0 -> 0 per grain diameter.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import least_squares
 from scipy.stats import linregress
 
 from grainflow.analysis.stream._common import (GRAVITY, _count, _each_frame, _finite, _frozen,
@@ -102,7 +88,7 @@ __all__ = [
     "DropletShape", "droplet_shape", "Droplet", "find_droplets",
     "DropletSelection", "select_droplets", "AspectHistogram", "aspect_ratio_histogram",
     "DropletTrack", "track_droplets", "DropletSeparation", "droplet_separations",
-    "free_fall_separation_velocity", "SeparationGradient", "fit_separation_gradient",
+    "free_fall_separation_velocity",
 ]
 
 #: Smallest droplet (grains), depth of fully formed droplets (m), droplets excluded as the
@@ -661,69 +647,3 @@ def droplet_separations(
     out.sort(key=lambda s: first_seen[(s.upper, s.lower)])
     return out
 
-
-@dataclass(frozen=True, kw_only=True)
-class SeparationGradient:
-    """The free-fall fit of adjacent droplets' separation velocities against their spacing at
-    the aperture (:func:`fit_separation_gradient`).
-
-    Attributes
-    ----------
-    speed, speed_err : V of Delta v = sqrt(V^2 + 2 g Delta z0) - V and its standard error
-        (m/s): the aperture speed the separations imply.
-    gradient, gradient_err : A = g d / V, the velocity difference across one grain diameter
-        at the aperture (m/s; the seed's 1.4 cm/s), and its error.
-    pairs : pairs fitted (finite, positive Delta z0 and finite Delta v).
-    rms_residual : root-mean-square residual of Delta v (m/s).
-    """
-
-    speed: float
-    speed_err: float
-    gradient: float
-    gradient_err: float
-    pairs: int
-    rms_residual: float
-
-    def predict(self, dz0: ArrayLike, g: float = GRAVITY) -> np.ndarray | float:
-        """The fitted Delta v at spacings ``dz0`` (m)."""
-        return free_fall_separation_velocity(dz0, self.speed, g)
-
-
-def fit_separation_gradient(
-    separations: Sequence[DropletSeparation],
-    *,
-    grain_diameter: float,
-    g: float = GRAVITY,
-) -> SeparationGradient:
-    """Fit Delta v = sqrt(V^2 + 2 g Delta z0) - V to the pairs' separation velocities and
-    spacings at the aperture, V free, and give the gradient A = g d / V (module docstring;
-    seed 000, Sec. III). Needs at least two pairs with a finite, positive ``dz0`` (tracked
-    with v0)."""
-    d = _positive("grain_diameter", grain_diameter)
-    g_ = _positive("g", g)
-    dz0 = np.array([s.dz0 for s in separations], dtype=float)
-    dv = np.array([s.velocity for s in separations], dtype=float)
-    keep = np.isfinite(dz0) & (dz0 > 0) & np.isfinite(dv)
-    dz0, dv = dz0[keep], dv[keep]
-    if dz0.size < 2:
-        raise ValueError(f"separations: need at least two pairs with a finite, positive dz0 "
-                         f"(tracked with v0), got {dz0.size}")
-    if not np.any(dv > 0):
-        raise ValueError("separations: no pair separates (every Delta v <= 0); the free-fall "
-                         "form has no positive speed to fit")
-
-    def residual(p: np.ndarray) -> np.ndarray:
-        return np.sqrt(p[0] ** 2 + 2.0 * g_ * dz0) - p[0] - dv
-
-    # start from the linearised form, Delta v ~ g Delta z0 / V
-    start = g_ * float(np.sum(dz0 ** 2)) / float(np.sum(dz0 * np.maximum(dv, 0.0)))
-    fit = least_squares(residual, x0=[start], bounds=([1e-9 * start], [np.inf]))
-    speed = float(fit.x[0])
-    dof = dz0.size - 1
-    rss = float(np.sum(fit.fun ** 2))
-    jtj = float(fit.jac[:, 0] @ fit.jac[:, 0])
-    speed_err = math.sqrt(rss / dof / jtj) if dof > 0 and jtj > 0 else float("nan")
-    gradient = g_ * d / speed
-    return SeparationGradient(speed=speed, speed_err=speed_err, gradient=gradient,
-                              gradient_err=gradient * speed_err / speed, pairs=int(dz0.size),
-                              rms_residual=math.sqrt(rss / dz0.size))

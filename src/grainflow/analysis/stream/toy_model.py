@@ -12,7 +12,9 @@ so ``K_i ~ kappa F_c L0`` and
     L0 = (F_c / Sigma)^(1/2),
 
 with ``Sigma`` a stress (the seed's fit value is lost: "? nN/mm^2", NF). ``L0`` is measured
-as the separation of adjacent droplets carried back to the aperture
+as the separation of adjacent droplets at the aperture: measured on the droplets' grains when
+the pair passes it (:attr:`~grainflow.analysis.stream.traced_pairs.TracedPair.dz0`, the
+seed's method), or their forward-tracked line carried back to it
 (:attr:`~grainflow.analysis.stream.droplets.DropletSeparation.dz0`), and the model predicts
 it equals the grain size d at ``F* = Sigma d^2``, which the seed finds close to the
 clustering-to-droplet crossover.
@@ -29,6 +31,7 @@ from numpy.typing import ArrayLike
 
 from grainflow.analysis.checks import finite, paired_arrays, positive
 from grainflow.analysis.stream.droplets import DropletSeparation
+from grainflow.analysis.stream.traced_pairs import TracedPair
 
 
 def gradient_kinetic_energy(length: ArrayLike, *, density: float, packing_fraction: float,
@@ -45,18 +48,19 @@ def gradient_kinetic_energy(length: ArrayLike, *, density: float, packing_fracti
 @dataclass(frozen=True)
 class ApertureLength:
     """The droplet length scale at the aperture of one stream: the mean separation of
-    adjacent droplets carried back to the aperture (``dz0``), its standard error over the
-    pairs, and how many pairs gave it."""
+    adjacent droplets at the aperture (``dz0``), its standard error over the pairs, and how
+    many pairs gave it."""
 
     mean: float
     err: float
     pairs: int
 
 
-def aperture_length(separations: Sequence[DropletSeparation]) -> ApertureLength:
-    """:class:`ApertureLength` from :func:`~grainflow.analysis.stream.droplet_separations`
-    (pairs without a finite, positive ``dz0`` are left out: they were tracked without v0,
-    or their line crosses zero before the aperture)."""
+def aperture_length(separations: Sequence[TracedPair | DropletSeparation]) -> ApertureLength:
+    """:class:`ApertureLength` from :func:`~grainflow.analysis.stream.trace_droplet_pairs` or
+    :func:`~grainflow.analysis.stream.droplet_separations` (pairs without a finite, positive
+    ``dz0`` are left out: a traced pair that passed the aperture before the first frame, a
+    forward-tracked one without v0 or whose line crosses zero before the aperture)."""
     dz0 = np.array([s.dz0 for s in separations], dtype=float)
     dz0 = dz0[np.isfinite(dz0) & (dz0 > 0)]
     if dz0.size == 0:
