@@ -51,7 +51,10 @@ class StreamPlan:
     frames_every: int
     shell: tuple[tuple[float, float], ...] = ()   # (F_c nN, delta nm) at e = shell_e
     shell_e: float = 0.40
-    frames_from: float = 0.0  # s; frames before it are not saved (the full runs' transient)
+    #: s; frames before it are not saved (the opening's transient). It lies 0.1 s after the
+    #: aperture opens, before the steady window, so that the droplets found in the window can
+    #: be traced back to the aperture (_tracked_separations)
+    frames_from: float = 0.0
     reductions: tuple[str, ...] = field(default=())
 
 
@@ -60,14 +63,14 @@ FULL = StreamPlan(
     cohesion_nN=(0.0, 1.0, 10.0, 30.0, 100.0, 300.0, 400.0, 1000.0, 1100.0, 2000.0),
     stream={"hopper_diameter": "7.5 mm", "fill_height": "6 mm", "contact_time": "50 us",
             "open_time": "0.08 s", "stream_depth": "22 cm"},
-    duration=0.45, frames_every=1000, frames_from=0.28,
+    duration=0.45, frames_every=1000, frames_from=0.18,
     shell=((2000.0, 50.0), (500.0, 200.0)), shell_e=0.40)
 REDUCED = StreamPlan(
     restitution=(0.88, 0.40),
     cohesion_nN=(0.0, 30.0, 300.0, 1000.0),
     stream={"hopper_diameter": "5 mm", "fill_height": "3 mm", "contact_time": "100 us",
             "open_time": "0.05 s", "stream_depth": "22 cm"},
-    duration=0.36, frames_every=500, frames_from=0.25,
+    duration=0.36, frames_every=500, frames_from=0.15,
     shell=((500.0, 200.0),), shell_e=0.40,
     reductions=(
         "e in {0.88, 0.40} and F_c in {0, 30, 300, 1000} nN (seed: 5 x ~10 points)",
@@ -75,7 +78,7 @@ REDUCED = StreamPlan(
         "the stream is followed to 22 cm as in the seed, but over a window of 0.1 s "
         "(t = 0.26-0.36 s); droplets deeper than 20 cm count, none excluded (seed: the 1000 "
         "farthest)",
-        "t_c = 100 us (full: 50 us); frames every 1 ms"))
+        "t_c = 100 us (full: 50 us); frames every 1 ms from t = 0.15 s"))
 
 
 def _base(plan: StreamPlan) -> dict[str, Any]:
@@ -128,14 +131,15 @@ def _section(config: dict[str, Any]) -> Any:
     return StreamSection(**config["stream"])
 
 
-def _window_frames(rundir: Path) -> tuple[list[Any], Any]:
-    """The run's frames from :func:`_steady_start` on, and its ``[stream]`` section."""
+def _window_frames(rundir: Path, *, before: bool = False) -> tuple[list[Any], Any]:
+    """The run's frames from :func:`_steady_start` on (``before``: every saved frame, the
+    earlier ones first), and its ``[stream]`` section."""
     import tomllib
 
     from grainflow.io.h5md import read_frames
 
     section = _section(tomllib.loads((rundir / "config.toml").read_text()))
-    start = _steady_start(section)
+    start = -math.inf if before else _steady_start(section)
     frames = [f for f in read_frames(rundir / "frames.h5") if f.time >= start - 1e-12]
     return frames, section
 
@@ -359,27 +363,28 @@ def _verdict(name: str, value: float | None, err: float | None) -> tuple[str, st
     return ours, "agrees" if abs(value - seed) <= TOLERANCE * abs(seed) else "misses"
 
 
-#: Droplets are paired in frames 10 ms apart, from the window's last frame back, and only
-#: those deeper than 5 cm: the seed's fully formed droplets lie below 20 cm, but a pair
-#: found there left the aperture 0.19 s earlier, before the saved window begins (ours: the
-#: deepest that can be traced back; docs/streams.md gives the answer at 3 and 8 cm).
+#: Droplets are paired in the window's frames 10 ms apart, from its last frame back, and only
+#: those deeper than 5 cm (the seed's fully formed droplets lie below 20 cm; a pair found
+#: there left the aperture 0.19 s before, so only the window's last frames could give one:
+#: docs/streams.md gives the answer at 3 and 8 cm).
 TRACE_EVERY = 0.01
 TRACE_MIN_DEPTH = 0.05
 
 
 def _tracked_separations(rundir: Path, delta: float, v0: float) -> tuple[list[Any], list[Any]]:
     """The run's window frames (grains below the aperture) and its adjacent droplets (>= 30
-    grains) traced back to the aperture by their grains (the seed's method,
-    :func:`~grainflow.analysis.stream.trace_droplet_pairs`); only the pairs whose crossing of
-    the aperture lies in the window."""
+    grains), found in the window and traced back to the aperture by their grains through
+    every saved frame (the seed's method, :func:`~grainflow.analysis.stream.trace_droplet_pairs`);
+    only the pairs whose crossing of the aperture lies in the saved frames."""
     from grainflow.analysis.stream import stream_grains, trace_droplet_pairs
 
-    frames = _window_frames(rundir)[0]
+    frames, section = _window_frames(rundir, before=True)
+    first = next(k for k, f in enumerate(frames) if f.time >= _steady_start(section) - 1e-12)
     step = max(1, int(round(TRACE_EVERY / float(np.median(np.diff([f.time for f in frames]))))))
-    pairs = trace_droplet_pairs(frames, delta, identify=range(len(frames) - 1, -1, -step),
+    pairs = trace_droplet_pairs(frames, delta, identify=range(len(frames) - 1, first - 1, -step),
                                 min_depth=TRACE_MIN_DEPTH, v0=v0)
     traced = [p for p in pairs if np.isfinite(p.initial_velocity)]
-    return [stream_grains(f) for f in frames], traced
+    return [stream_grains(f) for f in frames[first:]], traced
 
 
 def _toy_model_section(lengths: dict[int, tuple[Any, list[Any]]], e: np.ndarray,
