@@ -29,20 +29,26 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from grainflow.analysis.stream import (aperture_speed, droplet_separations,
+from grainflow.analysis.stream import (aperture_length, aperture_speed, droplet_separations,
                                        find_droplets, fit_separation_gradient, stream_grains,
-                                       trace_droplet_pairs, track_droplets)
-from grainflow.studies.stream_study import TRACE_EVERY, _window_frames
+                                       track_droplets)
+from grainflow.studies.stream_study import _window_frames, traced_pairs_in
 
 
-def _row(method: str, interval: float, dz0: np.ndarray, dv: np.ndarray, pred: np.ndarray,
-         span: np.ndarray, d: float) -> str:
-    if dv.size == 0:
+def _row(method: str, interval: float, pairs: list[Any], velocity: str, d: float) -> str:
+    """A table row over ``pairs`` (forward-tracked or traced), whose separation velocity is
+    their attribute ``velocity``."""
+    if not pairs:
         return f"| {method} | {interval:.3g} | 0 | | | | | | |"
-    spacing = dz0[np.isfinite(dz0) & (dz0 > 0)]  # as aperture_length takes them
+    dz0 = np.array([p.dz0 for p in pairs])
+    dv = np.array([getattr(p, velocity) for p in pairs])
+    pred = np.array([p.predicted_velocity for p in pairs])
+    span = np.array([1e3 * np.ptp(p.times) for p in pairs])
+    length = aperture_length(pairs)
     try:
         fit = fit_separation_gradient(dz0, dv, grain_diameter=d)
         gradient = f"{100 * fit.gradient:.3g} ± {100 * fit.gradient_err:.2g}"
@@ -50,8 +56,8 @@ def _row(method: str, interval: float, dz0: np.ndarray, dv: np.ndarray, pred: np
         gradient = f"no fit ({exc})"
     return (f"| {method} | {interval:.3g} | {dv.size} | {100 * dv.mean():.3g} ± "
             f"{100 * dv.std() / np.sqrt(dv.size):.2g} | {100 * np.median(dv):.3g} | "
-            f"{100 * np.nanmean(pred):.3g} | {gradient} | {1e3 * spacing.mean():.3g} ± "
-            f"{1e3 * spacing.std(ddof=1) / np.sqrt(spacing.size):.2g} | {np.median(span):.3g} |")
+            f"{100 * np.nanmean(pred):.3g} | {gradient} | {1e3 * length.mean:.3g} ± "
+            f"{1e3 * length.err:.2g} | {np.median(span):.3g} |")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -76,18 +82,9 @@ def main(argv: list[str] | None = None) -> None:
         stream = [stream_grains(f) for f in sub]
         seps = droplet_separations(track_droplets(
             [find_droplets(f, section.cohesion_range, min_grains=30) for f in stream]), v0=v0)
-        print(_row("forward", 1e3 * k * interval, np.array([s.dz0 for s in seps]),
-                   np.array([s.velocity for s in seps]),
-                   np.array([s.predicted_velocity for s in seps]),
-                   np.array([1e3 * np.ptp(s.times) for s in seps]), d))
-        step = max(1, int(round(TRACE_EVERY / (k * interval))))
-        pairs = [p for p in trace_droplet_pairs(
-            sub, section.cohesion_range, identify=range(len(sub) - 1, -1, -step),
-            min_depth=args.min_depth, v0=v0) if np.isfinite(p.initial_velocity)]
-        print(_row("traced", 1e3 * k * interval, np.array([p.dz0 for p in pairs]),
-                   np.array([p.initial_velocity for p in pairs]),
-                   np.array([p.predicted_velocity for p in pairs]),
-                   np.array([1e3 * np.ptp(p.times) for p in pairs]), d))
+        print(_row("forward", 1e3 * k * interval, seps, "velocity", d))
+        pairs = traced_pairs_in(sub, section.cohesion_range, v0, min_depth=args.min_depth)
+        print(_row("traced", 1e3 * k * interval, pairs, "initial_velocity", d))
 
 
 if __name__ == "__main__":

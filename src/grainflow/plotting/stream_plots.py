@@ -30,10 +30,8 @@ from grainflow.plotting.figures import new_figure, save_figure
 
 __all__ = ["plot_contact_number", "plot_network_size", "plot_velocity_deviations",
            "plot_aspect_histogram", "plot_droplet_separations", "plot_traced_pairs",
-           "plot_separation_gradient",
-           "plot_phase_diagram",
-           "plot_stream_side", "write_stream_movie", "plot_contact_vs_capture",
-           "plot_toy_model"]
+           "plot_separation_gradient", "plot_phase_diagram", "plot_stream_side",
+           "write_stream_movie", "plot_contact_vs_capture", "plot_toy_model"]
 
 _CM = 100.0
 #: Marker of each regime in the phase diagram (anything else: "x").

@@ -99,8 +99,8 @@ def inflated_packing(x: np.ndarray, radii: np.ndarray, types: np.ndarray,
                          max_steps=MAX_FIRE_STEPS, dt_max_factor=FIRE_STEP_FACTOR)
     if not fire.converged:
         warn_user(f"hopper: the inflated packing's FIRE stopped after {fire.steps} steps "
-                      f"with forces up to {fire.max_force:.3g} (tolerance "
-                      f"{FORCE_TOLERANCE * epsilon:.3g}); the start is less even than the "
-                      "authors'", RuntimeWarning)
+                  f"with forces up to {fire.max_force:.3g} (tolerance "
+                  f"{FORCE_TOLERANCE * epsilon:.3g}); the start is less even than the "
+                  "authors'", RuntimeWarning)
     return state.positions[np.argsort(state.arrays["id"])].copy()
 

@@ -371,20 +371,31 @@ TRACE_EVERY = 0.01
 TRACE_MIN_DEPTH = 0.05
 
 
+def traced_pairs_in(frames: list[Any], delta: float, v0: float, *, first: int = 0,
+                    min_depth: float = TRACE_MIN_DEPTH) -> list[Any]:
+    """The adjacent droplets (>= 30 grains) found in ``frames[first:]`` every
+    ``TRACE_EVERY`` from the last frame back, deeper than ``min_depth``, and traced back to
+    the aperture through all of ``frames`` (the seed's method,
+    :func:`~grainflow.analysis.stream.trace_droplet_pairs`); only the pairs whose crossing
+    of the aperture lies in the frames."""
+    from grainflow.analysis.stream import trace_droplet_pairs
+
+    step = max(1, int(round(TRACE_EVERY / float(np.median(np.diff([f.time for f in frames]))))))
+    pairs = trace_droplet_pairs(frames, delta, identify=range(len(frames) - 1, first - 1, -step),
+                                min_depth=min_depth, v0=v0)
+    return [p for p in pairs if np.isfinite(p.initial_velocity)]
+
+
 def _tracked_separations(rundir: Path, delta: float, v0: float) -> tuple[list[Any], list[Any]]:
-    """The run's window frames (grains below the aperture) and its adjacent droplets (>= 30
-    grains), found in the window and traced back to the aperture by their grains through
-    every saved frame (the seed's method, :func:`~grainflow.analysis.stream.trace_droplet_pairs`);
-    only the pairs whose crossing of the aperture lies in the saved frames."""
-    from grainflow.analysis.stream import stream_grains, trace_droplet_pairs
+    """The run's window frames (grains below the aperture) and its adjacent droplets, found
+    in the window and traced back to the aperture through every saved frame
+    (:func:`traced_pairs_in`)."""
+    from grainflow.analysis.stream import stream_grains
 
     frames, section = _window_frames(rundir, before=True)
     first = next(k for k, f in enumerate(frames) if f.time >= _steady_start(section) - 1e-12)
-    step = max(1, int(round(TRACE_EVERY / float(np.median(np.diff([f.time for f in frames]))))))
-    pairs = trace_droplet_pairs(frames, delta, identify=range(len(frames) - 1, first - 1, -step),
-                                min_depth=TRACE_MIN_DEPTH, v0=v0)
-    traced = [p for p in pairs if np.isfinite(p.initial_velocity)]
-    return [stream_grains(f) for f in frames[first:]], traced
+    return ([stream_grains(f) for f in frames[first:]],
+            traced_pairs_in(frames, delta, v0, first=first))
 
 
 def _toy_model_section(lengths: dict[int, tuple[Any, list[Any]]], e: np.ndarray,
@@ -603,8 +614,9 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
                       f"F_c = {fc[i]:g} nN).", ""]
     lines += _toy_model_section(lengths, e, fc, base.grain_diameter, out,
                                 _crossovers(e, fc, regime))
-    gradient = _separation_gradient_section(lengths, base.grain_diameter, summ, out)
-    lines += gradient[1]
+    gradient, gradient_lines = _separation_gradient_section(lengths, base.grain_diameter,
+                                                            summ, out)
+    lines += gradient_lines
 
     # binary capture
     measured, analytic = measured_capture_velocity(0.40, 100.0, base.cohesion_range * 1e9)
@@ -636,9 +648,9 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     add("peak network size, droplets", max(summ[i]["N_peak"] for i in drops) if drops else None,
         None, ph.cpu)
     add("most probable aspect ratio", hist.mode if hist is not None else None, None, ph.cpu)
-    fit = gradient[0]
     add("separation gradient g d/V fitted to the droplet pairs (cm/s)",
-        100 * fit.gradient if fit else None, 100 * fit.gradient_err if fit else None, ph.cpu)
+        100 * gradient.gradient if gradient else None,
+        100 * gradient.gradient_err if gradient else None, ph.cpu)
     brackets = _crossovers(e, fc, regime)
     crossover = np.array([math.sqrt(lo * hi) for lo, hi in brackets.values()])
     add("clustering / droplet crossover F_c (nN)",

@@ -646,4 +646,3 @@ def droplet_separations(
             t0=t0, dz0=dz0, predicted_velocity=pred))
     out.sort(key=lambda s: first_seen[(s.upper, s.lower)])
     return out
-
