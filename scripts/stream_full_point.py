@@ -13,6 +13,10 @@ the time step, ``--frames-every`` the steps between saved frames and ``--mu`` th
 friction (NF); such runs go into a sweep directory
 named after the change (``OUT_DIR/phase-contact_time-100us``), because a point is named by
 its e and F_c only and the full study must not take them for its own.
+``--plan reduced`` runs the reduced plan's points instead
+(:data:`~grainflow.studies.stream_study.REDUCED`: the 5 mm hopper, t_c = 100 us, 0.36 s),
+into OUT_DIR/phase-reduced: forces between the reduced study's grid values place its
+clustering-to-droplet crossover more closely than the grid's bracket.
 Prints each run's summary (:func:`grainflow.studies.stream_study.stream_summary`) and, for a
 cohesive stream, its adjacent droplets' separation velocities against free fall and the toy
 model's length L0 at the aperture, as the study's report gives them.
@@ -21,7 +25,8 @@ Usage (one point on one thread, AMD EPYC: about 2.5-3 hours at the full plan's t
 5,985 s with ``--contact-time "100 us"`` while the other core was busy; 1,100-2,500 s in the
 reduced hopper, ``--hopper-diameter "5 mm" --fill-height "3 mm"``; docs/streams.md)::
 
-    python scripts/stream_full_point.py OUT_DIR [--e 0.88] [--fc 1000] [--contact-time "100 us"]
+    python scripts/stream_full_point.py OUT_DIR [--plan reduced] [--e 0.88] [--fc 1000]
+        [--contact-time "100 us"]
         [--hopper-diameter "5 mm"] [--fill-height "3 mm"] [--cohesion-range "50 nm"]
         [--dt-fraction 0.01] [--mu 0.1] [--frames-every 100]
 """
@@ -36,8 +41,8 @@ import numpy as np
 from grainflow import interrupt
 from grainflow.analysis.stream import aperture_length
 from grainflow.studies.points import run_sweeps
-from grainflow.studies.stream_study import (FULL, _section, _tracked_separations, regime_name,
-                                           sweep_specs)
+from grainflow.studies.stream_study import (FULL, REDUCED, _section, _tracked_separations,
+                                           regime_name, sweep_specs)
 from grainflow.sweep import parse_sweep
 
 
@@ -48,6 +53,8 @@ STREAM_FIELDS = ("hopper-diameter", "fill-height", "contact-time", "cohesion-ran
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", type=Path)
+    parser.add_argument("--plan", choices=("full", "reduced"), default="full",
+                        help="whose sizes and timing the runs take (default: the full plan's)")
     parser.add_argument("--e", type=float, nargs="+", default=[0.88],
                         help="restitutions (default 0.88)")
     parser.add_argument("--fc", type=float, nargs="+", default=[1000.0],
@@ -65,10 +72,11 @@ def main(argv: list[str] | None = None) -> None:
                         help="Coulomb friction between grains and with the walls (default: "
                         "the [stream] table's 0.5; NF in the seed)")
     args = parser.parse_args(argv)
-    raw = sweep_specs(FULL)["phase"].model_dump()
-    # a point is named by its e and F_c only: a run with a size changed goes into a sweep
-    # directory of its own, which the full study (OUT_DIR/phase) never reads as its own
-    sweep = "phase"
+    raw = sweep_specs(FULL if args.plan == "full" else REDUCED)["phase"].model_dump()
+    # a point is named by its e and F_c only: a run with a size changed, or of the other
+    # plan, goes into a sweep directory of its own, which the full study (OUT_DIR/phase)
+    # never reads as its own
+    sweep = "phase" if args.plan == "full" else "phase-reduced"
     for name in (field.replace("-", "_") for field in STREAM_FIELDS):
         if getattr(args, name) is not None:
             raw["base"]["stream"][name] = getattr(args, name)

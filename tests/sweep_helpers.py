@@ -66,6 +66,13 @@ def gated_runner(config: dict[str, Any], rundir: Path) -> None:
     sleep_runner(config, rundir)
 
 
+def gate_opening_runner(config: dict[str, Any], rundir: Path) -> None:
+    """Like sleep_runner, then creates the file test.opens (the gate a gated_runner waits
+    for)."""
+    sleep_runner(config, rundir)
+    Path(config["test"]["opens"]).touch()
+
+
 def failing_runner(config: dict[str, Any], rundir: Path) -> None:
     """Like sleep_runner, but raises for p.a == test.fail_a."""
     if config["p"]["a"] == config["test"]["fail_a"]:

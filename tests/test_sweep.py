@@ -34,6 +34,7 @@ from grainflow.sweep import (
     parse_sweep,
     run_point,
     run_sweep,
+    run_sweeps_together,
 )
 from grainflow.sweep.cli import sweep_app
 from grainflow.sweep.execute import PointTask, SweepError, _exclusive
@@ -274,6 +275,7 @@ def test_failing_point_is_recorded_while_others_finish(tmp_path, scheduler):
             assert row.summary == {}
         else:
             assert row.status == "done" and row.error is None
+    assert "of sweep 'tiny'" in output.file.getvalue()
     assert "failed: RuntimeError: deliberate failure at a=2" in output.file.getvalue()
 
     rerun = run_sweep(spec, sweepdir, scheduler=scheduler, console=quiet())
@@ -281,6 +283,34 @@ def test_failing_point_is_recorded_while_others_finish(tmp_path, scheduler):
     calls = helpers.runner_calls(tmp_path)
     assert len(calls) == 12, "only the 4 failed points run again"
     assert all(c["a"] == 2 for c in calls[8:])
+
+
+def test_sweeps_run_together_share_the_workers(tmp_path, scheduler):
+    """The first sweep's only point waits for a file that only the second sweep's point
+    creates: run one sweep after the other, it would wait out its 60 s and log its call
+    first; run together, the second sweep's point takes the idle worker and opens the gate."""
+    gate = tmp_path / "gate"
+    one = {"overrides": {"p.a": [2]}, "replicates": 1}
+    waiting = make_spec(tmp_path, runner="gated_runner", test={"gate": str(gate)}, **one)
+    opening = make_spec(tmp_path, runner="gate_opening_runner", test={"opens": str(gate)},
+                        name="opening", **{**one, "overrides": {"p.a": [1]}})
+    results = run_sweeps_together([(waiting, tmp_path / "waiting"),
+                                   (opening, tmp_path / "opening")],
+                                  scheduler=scheduler, console=quiet())
+    assert [r.ok for r in results] == [True, True]
+    assert [r.sweepdir.name for r in results] == ["waiting", "opening"]
+    assert [c["a"] for c in helpers.runner_calls(tmp_path)] == [1, 2]
+    for name, a in (("waiting", 2), ("opening", 1)):
+        with Catalog.in_dir(tmp_path / name) as catalog:
+            (row,) = catalog.rows()
+        assert row.params["p.a"] == a and row.status == "done"
+
+
+def test_sweeps_run_together_need_their_own_directories(tmp_path):
+    spec = make_spec(tmp_path)
+    with pytest.raises(SweepError, match="give each its own sweep directory"):
+        run_sweeps_together([(spec, tmp_path / "s"), (spec, tmp_path / "x" / ".." / "s")])
+    assert not (tmp_path / "s").exists(), "nothing may be written before the check"
 
 
 def test_killed_worker_does_not_lose_the_sweep(tmp_path, scheduler):

@@ -40,16 +40,18 @@ def run_sweeps(specs: dict[str, Any], out: Path, *, scheduler: str | None = None
     """Run (or continue) each sweep into ``out/NAME`` and return its done points by name;
     finished points are never recomputed (:func:`grainflow.sweep.run_sweep`).
 
-    ``progress`` is each sweep's display (``"auto"``: a bar with the time left on a terminal,
-    a plain line every 30 s otherwise; ``"rich"``, ``"plain"``, ``"none"``); a line before
-    each sweep says which of the study's sweeps it is."""
-    from grainflow.sweep import run_sweep
+    The sweeps run together on one set of workers
+    (:func:`grainflow.sweep.run_sweeps_together`), their points started in the order of
+    ``specs``: a later sweep's points fill the workers an earlier sweep's last points leave
+    idle. ``progress`` is the display (``"auto"``: a bar with the time left on a terminal, a
+    plain line every 30 s otherwise; ``"rich"``, ``"plain"``, ``"none"``), counting the
+    points of every sweep."""
+    from grainflow.sweep import run_sweeps_together
 
     out.mkdir(parents=True, exist_ok=True)
-    points: dict[str, SweepPoints] = {}
-    for k, (name, spec) in enumerate(specs.items(), start=1):
-        if progress != "none":
-            print(f"study: sweep {k}/{len(specs)} '{name}' into {out / name}", flush=True)
-        run_sweep(spec, out / name, scheduler=scheduler, n_workers=n_workers, progress=progress)
-        points[name] = done_points(out / name)
-    return points
+    if progress != "none":
+        names = ", ".join(f"'{name}'" for name in specs)
+        print(f"study: sweeps {names} into {out}, run together", flush=True)
+    run_sweeps_together([(spec, out / name) for name, spec in specs.items()],
+                        scheduler=scheduler, n_workers=n_workers, progress=progress)
+    return {name: done_points(out / name) for name in specs}

@@ -4,7 +4,7 @@
 >>> result = run_sweep(load_sweep("q_vs_w.toml"), "q_vs_w")  # doctest: +SKIP
 
 See ``docs/sweeps.md`` for the sweep file format and running on a cluster.
-``run_sweep`` and its helpers import dask on first use.
+``run_sweep``, ``run_sweeps_together`` and their helpers import dask on first use.
 """
 
 from typing import Any
@@ -12,7 +12,7 @@ from typing import Any
 from grainflow.sweep.catalog import Catalog, CatalogRow, export_csv
 from grainflow.sweep.spec import Point, SweepFileError, SweepSpec, load_sweep, parse_sweep
 
-_EXECUTE_NAMES = ("run_sweep", "run_point", "run_analyses", "SweepResult", "SweepError")
+_EXECUTE_NAMES = ("run_sweep", "run_sweeps_together", "run_point", "run_analyses", "SweepResult", "SweepError")
 
 __all__ = [
     "Catalog",

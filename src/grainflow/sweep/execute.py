@@ -36,8 +36,8 @@ import threading
 import time
 import traceback
 import uuid
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -376,39 +376,101 @@ def run_sweep(
     the cluster is closed and KeyboardInterrupt is re-raised. Running the same
     sweep again continues where it stopped.
     """
+    return run_sweeps_together([(spec, sweepdir)], scheduler=scheduler, n_workers=n_workers,
+                               progress=progress, progress_interval=progress_interval,
+                               console=console, rebuild_catalog=rebuild_catalog)[0]
+
+
+def run_sweeps_together(
+    sweeps: Sequence[tuple[SweepSpec, str | Path]],
+    *,
+    scheduler: str | None = None,
+    n_workers: int | None = None,
+    progress: str = "auto",
+    progress_interval: float = 30.0,
+    console: Console | None = None,
+    rebuild_catalog: bool = False,
+) -> list[SweepResult]:
+    """Run several sweeps, each ``(spec, sweepdir)``, on one set of workers at once.
+
+    Each sweep keeps what :func:`run_sweep` gives it (its directory, lock, catalog, resumable
+    points); the arguments are :func:`run_sweep`'s. Only the workers are shared: every
+    sweep's points are submitted together, sweep by sweep in the order given, and the dask
+    scheduler starts independent tasks in the order they were submitted. So a later sweep's
+    points take the workers an earlier sweep's last points leave idle, where sweeps run one
+    after the other leave them idle until each sweep's slowest point ends (a study whose last
+    sweep is one long point ran it alone on one of two cores). Every sweep is validated and
+    its directory locked before any point starts; two sweeps may not share a directory.
+    Returns one :class:`SweepResult` per sweep, in the order given.
+    """
     if progress not in PROGRESS_MODES:
         raise ValueError(f"progress must be one of {PROGRESS_MODES}, not {progress!r}")
     console = console or Console(highlight=False)
-    sweepdir = Path(sweepdir).resolve()
-    points = spec.points()
-    resolve_callable(spec.runner)
-    for ref in spec.analyses:
-        resolve_callable(ref)
-    validate_point_configs(spec, points, where=f"sweep {spec.name!r}: ")
-    _prepare_sweepdir(sweepdir)
-    with _exclusive(sweepdir), _open_catalog(sweepdir, rebuild_catalog, console) as catalog:
+    chosen = [(spec, Path(sweepdir).resolve()) for spec, sweepdir in sweeps]
+    dirs = [sweepdir for _, sweepdir in chosen]
+    for sweepdir in dirs:
+        if dirs.count(sweepdir) > 1:
+            raise SweepError(f"two of the sweeps run together write into {sweepdir}; give each "
+                             "its own sweep directory")
+    listed = []
+    for spec, sweepdir in chosen:
+        points = spec.points()
+        resolve_callable(spec.runner)
+        for ref in spec.analyses:
+            resolve_callable(ref)
+        validate_point_configs(spec, points, where=f"sweep {spec.name!r}: ")
+        _prepare_sweepdir(sweepdir)
+        listed.append((spec, sweepdir, points))
+    with ExitStack() as stack:
+        opened = [_open_sweep(stack, spec, sweepdir, points, rebuild_catalog, console)
+                  for spec, sweepdir, points in listed]
+        if any(o.tasks for o in opened):
+            total = sum(len(o.ids) for o in opened)
+            reporter = _make_reporter(progress, console, total, progress_interval)
+            with _sigterm_as_interrupt(), open_client(scheduler, n_workers, console) as client:
+                _drive(client, opened, reporter)
+        for o in opened:
+            with _catalog_errors(o.catalog):
+                o.result.counts = o.catalog.counts(o.ids)
+    for o in opened:
+        console.out(
+            f"sweep {o.spec.name!r}: {o.result.counts['done']} done, "
+            f"{o.result.counts['failed']} failed of {o.result.total}"
+        )
+    return [o.result for o in opened]
+
+
+@dataclass
+class _OpenSweep:
+    """A sweep being driven: its catalog (open and locked), point ids and tasks to run."""
+
+    spec: SweepSpec
+    catalog: Catalog
+    ids: list[str]
+    tasks: list[PointTask]
+    result: SweepResult
+
+
+def _open_sweep(stack: ExitStack, spec: SweepSpec, sweepdir: Path, points: list[Point],
+                rebuild_catalog: bool, console: Console) -> _OpenSweep:
+    """Lock the sweep directory and open its catalog (both until ``stack`` closes), record
+    the sweep, and set every point not yet done back to pending."""
+    stack.enter_context(_exclusive(sweepdir))
+    catalog = stack.enter_context(_open_catalog(sweepdir, rebuild_catalog, console))
+    with _catalog_errors(catalog):
         _record_sweep(spec, sweepdir, catalog, console)
         catalog.register(points)
         catalog.reset_running()
         statuses = catalog.statuses()
         todo = [p for p in points if statuses[p.point_id] != "done"]
         catalog.requeue(p.point_id for p in todo)
-        result = SweepResult(sweepdir, len(points), len(points) - len(todo))
-        console.out(
-            f"sweep {spec.name!r}: {len(points)} points, {result.skipped} already done, "
-            f"{len(todo)} to run; catalog {catalog.path}"
-        )
-        if todo:
-            ids = [p.point_id for p in points]
-            reporter = _make_reporter(progress, console, len(points), progress_interval)
-            with _sigterm_as_interrupt(), open_client(scheduler, n_workers, console) as client:
-                _drive(client, catalog, _tasks(spec, todo, sweepdir), ids, reporter)
-        result.counts = catalog.counts(p.point_id for p in points)
+    result = SweepResult(sweepdir, len(points), len(points) - len(todo))
     console.out(
-        f"sweep {spec.name!r}: {result.counts['done']} done, {result.counts['failed']} failed "
-        f"of {result.total}"
+        f"sweep {spec.name!r}: {len(points)} points, {result.skipped} already done, "
+        f"{len(todo)} to run; catalog {catalog.path}"
     )
-    return result
+    return _OpenSweep(spec, catalog, [p.point_id for p in points],
+                      _tasks(spec, todo, sweepdir), result)
 
 
 def _tasks(spec: SweepSpec, points: list[Point], sweepdir: Path) -> list[PointTask]:
@@ -479,61 +541,91 @@ def open_client(
         yield client
 
 
-def _drive(
-    client: Client,
-    catalog: Catalog,
-    tasks: list[PointTask],
-    sweep_ids: list[str],
-    reporter: _Reporter,
-) -> None:
-    """Submit the tasks and record starts and results in the catalog until all finish."""
-    started: queue.SimpleQueue[tuple[float, dict[str, str]]] = queue.SimpleQueue()
-    client.subscribe_topic(tasks[0].topic, started.put)
-    futures = {
-        client.submit(run_point, t, key=f"point-{t.point_id}-{uuid.uuid4().hex[:8]}", pure=False): t
-        for t in tasks
-    }
+def _drive(client: Client, sweeps: list[_OpenSweep], reporter: _Reporter) -> None:
+    """Submit every sweep's tasks and record starts and results in each sweep's catalog
+    until all finish."""
+    started: queue.SimpleQueue[tuple[int, tuple[float, dict[str, str]]]] = queue.SimpleQueue()
+    topics = []
+    futures: dict[Future, tuple[int, PointTask]] = {}
+    for k, sweep in enumerate(sweeps):
+        if not sweep.tasks:
+            continue
+        topics.append(sweep.tasks[0].topic)
+        client.subscribe_topic(topics[-1], lambda event, k=k: started.put((k, event)))
+        for t in sweep.tasks:
+            key = f"point-{t.point_id}-{uuid.uuid4().hex[:8]}"
+            futures[client.submit(run_point, t, key=key, pure=False)] = (k, t)
     unfinished = as_completed(futures)
-    reporter.start(catalog.counts(sweep_ids))
+    reporter.start(_counts(sweeps))
     try:
         while not unfinished.is_empty():
             for future in unfinished.next_batch(block=False):
-                if _record_result(catalog, future, futures[future], reporter):
+                k, task = futures[future]
+                with _catalog_errors(sweeps[k].catalog):
+                    recorded = _record_result(sweeps[k], future, task, reporter)
+                if recorded:
                     del futures[future]
                 else:
                     unfinished.add(future)
-            _record_starts(catalog, started)
-            reporter.update(catalog.counts(sweep_ids))
+            _record_starts(sweeps, started)
+            reporter.update(_counts(sweeps))
             time.sleep(_POLL_SECONDS)
         time.sleep(_POLL_SECONDS)  # start reports travel separately from results
-        _record_starts(catalog, started)
+        _record_starts(sweeps, started)
     except KeyboardInterrupt:
         client.cancel(list(futures))
-        returned = catalog.reset_running()
+        returned = 0
+        for sweep in sweeps:
+            with _catalog_errors(sweep.catalog):
+                returned += sweep.catalog.reset_running()
         reporter.message(
             f"interrupted: {returned} running point(s) set back to pending; "
             "run the same command again to continue"
         )
         raise
     finally:
-        reporter.stop(catalog.counts(sweep_ids))
-        client.unsubscribe_topic(tasks[0].topic)
+        reporter.stop(_counts(sweeps))
+        for topic in topics:
+            client.unsubscribe_topic(topic)
+
+
+def _counts(sweeps: list[_OpenSweep]) -> dict[str, int]:
+    """Points by status, summed over the sweeps."""
+    total: dict[str, int] = {}
+    for sweep in sweeps:
+        with _catalog_errors(sweep.catalog):
+            for status, n in sweep.catalog.counts(sweep.ids).items():
+                total[status] = total.get(status, 0) + n
+    return total
+
+
+@contextmanager
+def _catalog_errors(catalog: Catalog) -> Iterator[None]:
+    """SQLite errors of ``catalog`` as :class:`CatalogError` naming its file (with several
+    sweeps open, the error names the catalog that raised it)."""
+    try:
+        yield
+    except sqlite3.Error as exc:
+        raise catalog.error(exc) from None
 
 
 def _record_starts(
-    catalog: Catalog, started: queue.SimpleQueue[tuple[float, dict[str, str]]]
+    sweeps: list[_OpenSweep], started: queue.SimpleQueue[tuple[int, tuple[float, dict[str, str]]]]
 ) -> None:
     while not started.empty():
-        _, msg = started.get()
-        catalog.mark_started(msg["point_id"], msg["worker"], msg["at"])
+        k, (_, msg) = started.get()
+        with _catalog_errors(sweeps[k].catalog):
+            sweeps[k].catalog.mark_started(msg["point_id"], msg["worker"], msg["at"])
 
 
-def _record_result(catalog: Catalog, future: Future, task: PointTask, reporter: _Reporter) -> bool:
+def _record_result(sweep: _OpenSweep, future: Future, task: PointTask,
+                   reporter: _Reporter) -> bool:
     """Store a finished task; returns False if its result was lost and is being recomputed.
 
     A task that never returned (its worker died too often, or it was cancelled)
     is recorded as failed.
     """
+    catalog = sweep.catalog
     if future.status == "finished":
         try:
             record = future.result(timeout=60)
@@ -557,7 +649,8 @@ def _record_result(catalog: Catalog, future: Future, task: PointTask, reporter: 
     future.release()
     if error:
         last_line = error.strip().splitlines()[-1]
-        reporter.message(f"point {task.point_id} ({_label(task.params)}) failed: {last_line}")
+        reporter.message(f"point {task.point_id} of sweep {sweep.spec.name!r} "
+                         f"({_label(task.params)}) failed: {last_line}")
     return True
 
 
