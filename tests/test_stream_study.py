@@ -113,6 +113,23 @@ def test_crossover_brackets_per_restitution() -> None:
     assert stream_study._crossovers(e, fc, regime) == {0.4: (30.0, 300.0), 0.88: (30.0, 1000.0)}
 
 
+def test_crossover_brackets_in_capture_velocity_overlap_where_one_v_c_fits_both() -> None:
+    from grainflow.models.cohesion_constant import capture_velocity
+
+    m, delta = 1.047e-8, 100e-9
+    # v_c scales as sqrt(F_c)/e: 100 nN at e = 0.4 is the same v_c as 484 nN at e = 0.88
+    same = capture_velocity(100e-9, delta, m, 0.4)
+    assert capture_velocity(484e-9, delta, m, 0.88) == pytest.approx(same)
+    speeds, common = stream_study.crossover_capture_velocities(
+        {0.4: (30.0, 100.0), 0.88: (300.0, 500.0)}, delta, m)
+    assert speeds[0.4] == pytest.approx((capture_velocity(30e-9, delta, m, 0.4), same))
+    assert common == pytest.approx((capture_velocity(300e-9, delta, m, 0.88), same))
+    _, apart = stream_study.crossover_capture_velocities(
+        {0.4: (30.0, 100.0), 0.88: (1000.0, 2000.0)}, delta, m)
+    assert apart is None
+    assert stream_study.crossover_capture_velocities({}, delta, m) == ({}, None)
+
+
 def _traced(dz0: float, dv0: float) -> Any:
     from grainflow.analysis.stream import TracedPair
 

@@ -353,6 +353,25 @@ def _crossovers(e: np.ndarray, fc: np.ndarray, regime: list[str]
     return out
 
 
+def crossover_capture_velocities(brackets: dict[float, tuple[float, float]], delta: float,
+                                 mass: float) -> tuple[dict[float, tuple[float, float]],
+                                                       tuple[float, float] | None]:
+    """The crossover brackets of :func:`_crossovers` (nN, per restitution) as brackets of
+    the capture velocity v_c = (2/e) sqrt(F_c delta/m) (m/s), and where they all overlap
+    (None if they do not). The seed finds the contact number governed mostly by v_c (its
+    Fig. 7, eq. 3): if one v_c sets the crossover, the brackets of different e overlap."""
+    from grainflow.models.cohesion_constant import capture_velocity
+
+    speeds = {e: (capture_velocity(lo * 1e-9, delta, mass, e),
+                  capture_velocity(hi * 1e-9, delta, mass, e))
+              for e, (lo, hi) in brackets.items()}
+    if not speeds:
+        return speeds, None
+    low = max(lo for lo, _ in speeds.values())
+    high = min(hi for _, hi in speeds.values())
+    return speeds, ((low, high) if low < high else None)
+
+
 def _verdict(name: str, value: float | None, err: float | None) -> tuple[str, str]:
     seed, kind = SEED[name]
     if value is None or not np.isfinite(value):
@@ -664,6 +683,15 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
                   "geometric mean): " + ", ".join(f"e = {k:g}: {lo:g}-{hi:g} nN"
                                                   for k, (lo, hi) in sorted(brackets.items())),
                   ""]
+        speeds, common = crossover_capture_velocities(brackets, base.cohesion_range, m)
+        overlap = (f"they overlap in {1e3 * common[0]:.3g}-{1e3 * common[1]:.3g} mm/s, so one "
+                   "capture velocity can set the crossover at every e of the sweep"
+                   if common is not None else "they do not overlap: no single capture "
+                   "velocity sets the crossover at every e of the sweep")
+        lines += ["The same brackets in the capture velocity v_c = (2/e) sqrt(F_c delta/m): "
+                  + ", ".join(f"e = {k:g}: {1e3 * lo:.3g}-{1e3 * hi:.3g} mm/s"
+                              for k, (lo, hi) in sorted(speeds.items()))
+                  + f"; {overlap} (the seed: the contact number depends mostly on v_c).", ""]
     if separation:
         lines += [f"Droplet separation in the most cohesive stream: {separation[3]} adjacent "
                   "pairs traced back to the aperture by their grains, initial separation "
