@@ -290,10 +290,10 @@ def test_sweeps_run_together_share_the_workers(tmp_path, scheduler):
     creates: run one sweep after the other, it would wait out its 60 s and log its call
     first; run together, the second sweep's point takes the idle worker and opens the gate."""
     gate = tmp_path / "gate"
-    one = {"overrides": {"p.a": [2]}, "replicates": 1}
-    waiting = make_spec(tmp_path, runner="gated_runner", test={"gate": str(gate)}, **one)
+    waiting = make_spec(tmp_path, runner="gated_runner", test={"gate": str(gate)},
+                        overrides={"p.a": [2]}, replicates=1)
     opening = make_spec(tmp_path, runner="gate_opening_runner", test={"opens": str(gate)},
-                        name="opening", **{**one, "overrides": {"p.a": [1]}})
+                        name="opening", overrides={"p.a": [1]}, replicates=1)
     results = run_sweeps_together([(waiting, tmp_path / "waiting"),
                                    (opening, tmp_path / "opening")],
                                   scheduler=scheduler, console=quiet())

@@ -631,8 +631,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
             lines += [f"![stream at e = {e[i]:g}, F_c = {fc[i]:g} nN](stream.png)",
                       "", f"Movie: [stream.gif](stream.gif) (e = {e[i]:g}, "
                       f"F_c = {fc[i]:g} nN).", ""]
-    lines += _toy_model_section(lengths, e, fc, base.grain_diameter, out,
-                                _crossovers(e, fc, regime))
+    brackets = _crossovers(e, fc, regime)
+    lines += _toy_model_section(lengths, e, fc, base.grain_diameter, out, brackets)
     gradient, gradient_lines = _separation_gradient_section(lengths, base.grain_diameter,
                                                             summ, out)
     lines += gradient_lines
@@ -670,7 +670,6 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     add("separation gradient g d/V fitted to the droplet pairs (cm/s)",
         100 * gradient.gradient if gradient else None,
         100 * gradient.gradient_err if gradient else None, ph.cpu)
-    brackets = _crossovers(e, fc, regime)
     crossover = np.array([math.sqrt(lo * hi) for lo, hi in brackets.values()])
     add("clustering / droplet crossover F_c (nN)",
         float(np.exp(np.mean(np.log(crossover)))) if crossover.size else None,

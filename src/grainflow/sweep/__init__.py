@@ -12,7 +12,8 @@ from typing import Any
 from grainflow.sweep.catalog import Catalog, CatalogRow, export_csv
 from grainflow.sweep.spec import Point, SweepFileError, SweepSpec, load_sweep, parse_sweep
 
-_EXECUTE_NAMES = ("run_sweep", "run_sweeps_together", "run_point", "run_analyses", "SweepResult", "SweepError")
+_EXECUTE_NAMES = ("run_sweep", "run_sweeps_together", "run_point", "run_analyses",
+                  "SweepResult", "SweepError")
 
 __all__ = [
     "Catalog",

@@ -709,11 +709,8 @@ def _open_catalog(sweepdir: Path, rebuild: bool, console: Console) -> Iterator[C
     else:
         if rebuild:
             console.out(f"{path} is readable; nothing to rebuild")
-    try:
-        with catalog:
-            yield catalog
-    except sqlite3.Error as exc:
-        raise catalog.error(exc) from None
+    with _catalog_errors(catalog), catalog:
+        yield catalog
 
 
 @contextmanager
