@@ -5,7 +5,8 @@ LAMMPS chute (``chute``: 32,000 spheres, ``--steps`` steps after 50 warm-up step
 2D hopper of ``grainflow demo`` (``hopper2d``: 1600 soft disks, drag limit, walls and
 reinsertion, ``--steps`` steps after 500 warm-up steps) or the smooth deformable-ring hopper
 of ``dp_hopper.py`` (``dp_smooth``: 1600 rings of 16 vertices, from a landed state given by
-``--state``) with both source trees,
+``--state``) or any run configuration (``config``: ``--config FILE`` built as ``grainflow run``
+builds it, FIRE included, then ``--warmup`` steps, e.g. to steady flow) with both source trees,
 alternating them ``--repeat`` times on 1 and 2 threads, each measurement in a fresh process
 with the threading layer fixed (``NUMBA_THREADING_LAYER``, default ``omp``). Prints the CPU,
 the median particle-steps per second of each, their ratio, and whether the two trees give
@@ -16,6 +17,8 @@ Usage::
     python benchmarks/compare_revisions.py --base 8afff5a [--steps 1000] [--repeat 3]
     python benchmarks/compare_revisions.py --base fba8333 --case hopper2d --steps 10000
     python benchmarks/compare_revisions.py --base HEAD --case dp_smooth --state landed.pkl
+    python benchmarks/compare_revisions.py --base HEAD --case config \
+        --config benchmarks/hopper_authors2d.toml --warmup 30000 --steps 20000
 """
 
 from __future__ import annotations
@@ -49,6 +52,12 @@ SETUP = {
                   "sim = build_hopper(HopperSection(convention='authors', particles='dp_smooth', "
                   "n=1600, orifice_width=6.0, lam=math.inf), 2, seed=0)\n"
                   "sim.load_state_dict(pickle.loads(Path(sys.argv[1]).read_bytes()))\n"),
+    # --config: a run configuration, then --warmup steps (GRAINFLOW_WARMUP)
+    "config": ("from grainflow.config.build import build_simulation\n"
+               "from grainflow.config.schema import load_config\n"
+               "sim = build_simulation(load_config(sys.argv[1]))\n"
+               "sim.threads = int(os.environ['NUMBA_NUM_THREADS'])\n"
+               "sim.run(int(os.environ['GRAINFLOW_WARMUP']))\n"),
 }
 TIMED = r"""
 sim.threads = int(os.environ["NUMBA_NUM_THREADS"])  # the count measured, not "auto"
@@ -64,9 +73,10 @@ print(json.dumps({"psps": sim.state.n * steps / wall, "steps_per_s": steps / wal
 
 
 def measure(src: Path, data: Path, steps: int, threads: int, layer: str,
-            case: str = "chute") -> dict:
+            case: str = "chute", warmup: int = 0) -> dict:
     env = dict(os.environ, PYTHONPATH=str(src), NUMBA_NUM_THREADS=str(threads),
-               OMP_NUM_THREADS=str(threads), NUMBA_THREADING_LAYER=layer)
+               OMP_NUM_THREADS=str(threads), NUMBA_THREADING_LAYER=layer,
+               GRAINFLOW_WARMUP=str(warmup))
     worker = "import json, os, sys, time\n" + SETUP[case] + TIMED
     out = subprocess.run([sys.executable, "-c", worker, str(data), str(steps)], env=env,
                          capture_output=True, text=True, check=True)
@@ -83,9 +93,14 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--state", type=Path,
                     help="dp_smooth: the landed hopper's pickled state_dict (write one with "
                          "dp_hopper.py's settle phase)")
+    ap.add_argument("--config", type=Path, help="config: the run configuration (TOML)")
+    ap.add_argument("--warmup", type=int, default=0,
+                    help="config: steps run before the timed ones (default 0)")
     args = ap.parse_args(argv)
     if args.case == "dp_smooth" and (args.state is None or not args.state.is_file()):
         ap.error("--state: the dp_smooth case needs the landed hopper's pickled state_dict")
+    if args.case == "config" and (args.config is None or not args.config.is_file()):
+        ap.error("--config: the config case needs a run configuration file")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         tree = tmp / "base"
@@ -97,6 +112,8 @@ def main(argv: list[str] | None = None) -> dict:
                 data.write_bytes(f.read())
             if args.case == "dp_smooth":
                 data = args.state.resolve()
+            if args.case == "config":
+                data = args.config.resolve()
             trees = {"base": tree / "src", "current": REPO / "src"}
             results: dict = {"case": args.case, "cpu": cpu_model(), "layer": args.layer,
                              "steps": args.steps, "base": args.base}
@@ -105,7 +122,7 @@ def main(argv: list[str] | None = None) -> dict:
                 for _ in range(args.repeat):
                     for name, src in trees.items():
                         runs[name].append(measure(src, data, args.steps, threads, args.layer,
-                                                  args.case))
+                                                  args.case, args.warmup))
                 med = {k: statistics.median(r["psps"] for r in v) for k, v in runs.items()}
                 results[f"{threads}_threads"] = {
                     "base_psps": med["base"], "current_psps": med["current"],
@@ -116,7 +133,8 @@ def main(argv: list[str] | None = None) -> dict:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(tree)],
                            capture_output=True)
             shutil.rmtree(tree, ignore_errors=True)
-    print(f"{args.case}, {args.steps} steps, {results['cpu']}, threading layer {args.layer}, "
+    what = f"{args.config} after {args.warmup} steps" if args.case == "config" else args.case
+    print(f"{what}, {args.steps} steps, {results['cpu']}, threading layer {args.layer}, "
           f"median of {args.repeat}")
     for threads in (1, 2):
         r = results[f"{threads}_threads"]
