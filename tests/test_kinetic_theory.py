@@ -17,6 +17,7 @@ from grainflow.analysis.kinetic_theory import (
     eta_k_star,
     eta_mu_star,
     eta_star,
+    friction_slope,
     gamma_star,
     nu_eta_star,
     pressure,
@@ -165,6 +166,30 @@ def test_shear_viscosity_matches_eq_5_5(phi, e):
 def test_eta_mu_star_matches_eq_5_13(phi, a, e):
     expected = 16 * a / 5 * math.sqrt(6 * phi * (1 + 2 * phi * (1 + e) * chi_thesis(phi)))
     assert eta_mu_star(phi, a, e) == pytest.approx(expected, rel=1e-13)
+
+
+@pytest.mark.parametrize("phi, e", [(0.2, 0.75), (0.45, 0.616), (0.58, 0.9)])
+def test_friction_slope_is_mu_over_I_of_a_kinetic_flow(phi, e):
+    """mu*/I = (-sigma_rz / P) / (D_rz sqrt(m / (P d))) with sigma_rz = -eta_kin D_rz and P
+    of eq. 5.2 at n = 6 phi/(pi d^3), for any temperature, mass and diameter."""
+    for temp, diameter, mass in ((0.04, 1.0, 1.0), (3.0, 1.3, 2.5)):
+        n = 6 * phi / (math.pi * diameter**3)
+        P = n * temp * (1 + 2 * phi * (1 + e) * chi_thesis(phi))
+        eta = (5 / (16 * diameter**2) * math.sqrt(mass * temp / math.pi)
+               * thesis_coefficients(phi, e)["eta"])
+        D_rz = 0.07
+        mu_over_I = (eta * D_rz / P) / (D_rz * math.sqrt(mass / (P * diameter)))
+        assert friction_slope(phi, e) == pytest.approx(mu_over_I, rel=1e-12)
+    # the converse of eq. (5.13): a flow at this slope has the kinetic-theory viscosity
+    assert eta_mu_star(phi, friction_slope(phi, e), e) == pytest.approx(eta_star(phi, e),
+                                                                         rel=1e-12)
+
+
+def test_the_seeds_slopes_lie_below_kinetic_theory_at_every_density():
+    phi = np.linspace(0.01, 0.63, 400)
+    for e, a in ((0.75, 0.223), (0.616, 0.240)):  # frictionless, frictional (e renormalised)
+        slope = friction_slope(phi, e)
+        assert slope.min() > 1.4 * a and 0.1 < phi[np.argmin(slope)] < 0.3
 
 
 def test_arrays_broadcast_and_scalars_stay_scalar():

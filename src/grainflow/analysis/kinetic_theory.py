@@ -14,7 +14,8 @@ units (k_B = 1), as the thesis's T_g.
 * :func:`c_star`, :func:`zeta_star`, :func:`nu_eta_star`, :func:`gamma_star`,
   :func:`eta_k_star`, :func:`eta_star`, :func:`shear_viscosity` -- the Garzo-Dufty shear
   viscosity, eqs. (5.5)-(5.11), spheres only.
-* :func:`eta_mu_star` -- the viscosity implied by the fit mu* = a I, eq. (5.13).
+* :func:`eta_mu_star` -- the viscosity implied by the fit mu* = a I, eq. (5.13);
+  :func:`friction_slope`, the converse: the a of a flow with the kinetic-theory viscosity.
 * :func:`effective_restitution` -- the restitution coefficient renormalised for slightly
   frictional spheres, eq. (2.55) (Jenkins & Zhang, Phys. Fluids 14, 1228 (2002)).
 
@@ -346,6 +347,27 @@ def eta_mu_star(phi: ArrayLike, a: ArrayLike, restitution: ArrayLike,
     slope = _non_negative("a", a)
     ratio = pressure_ratio(phi, restitution, 3, phi_f, phi_c)
     return _out(16 * slope / 5 * np.sqrt(6 * np.asarray(phi, dtype=float) * ratio))
+
+
+def friction_slope(phi: ArrayLike, restitution: ArrayLike, phi_f: float | None = None,
+                   phi_c: float | None = None) -> FloatOrArray:
+    """Slope a of mu* = a I (thesis Sec. 5.3.3) of a flow whose shear viscosity and pressure
+    are the kinetic theory's, eqs. (5.5) and (5.2)::
+
+        a_KT(phi) = 5 eta*(phi) / (16 sqrt(6 phi (1 + 2 phi (1 + e) chi)))
+
+    Spheres. With sigma_rz = -eta D_rz (eq. 5.12) and I = D_rz sqrt(m / (P d)),
+    mu* / I = eta / sqrt(P m / d); eta_kin = 5/(16 d^2) sqrt(m T/pi) eta* and
+    P = n T (P/(n T)), n = 6 phi/(pi d^3), make it independent of T, m and d. The converse of
+    :func:`eta_mu_star` (``eta_mu_star(phi, friction_slope(phi, e), e) == eta_star(phi, e)``).
+    Its lowest value is 0.35 at e = 0.75 and 0.34 at e = 0.616, near phi = 0.2; it grows
+    without bound toward phi_c and toward phi = 0. The thesis's a = 0.223 (e = 0.75) and
+    0.240 (e_bar = 0.616) lie below it at every phi, i.e. a viscosity below kinetic theory's
+    (its Fig. 5.10).
+    """
+    phi_arr, chi, e = _sphere_state(phi, restitution, 3, phi_f, phi_c)
+    ratio = 1 + 2 * (1 + e) * phi_arr * chi
+    return _out(5 * _eta_star(phi_arr, chi, e) / (16 * np.sqrt(6 * phi_arr * ratio)))
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,106 @@
+"""Where the 3D slope a of mu* = a I misses: the layer's shear viscosity against kinetic
+theory (docs/jets.md, "3D mu* = a I").
+
+With the thesis's I = D_rz sqrt(m / (P d)) (the form its eq. 5.13 follows from) and
+sigma_rz = -eta D_rz (eq. 5.12), mu* / I = eta / sqrt(P m / d), so a flow whose viscosity is
+Garzo-Dufty's (eqs. 5.5-5.11) and whose pressure follows eq. 5.2 has the slope
+
+    a_KT(phi) = 5 eta*(phi) / (16 sqrt(6 phi (1 + 2 phi (1 + e) chi)))
+
+(:func:`grainflow.analysis.kinetic_theory.friction_slope`): 0.35 at its lowest (phi ~ 0.2,
+e = 0.75), above 0.8 past phi = 0.5. The thesis's
+a = 0.223 / 0.240 thus says its layer's viscosity is below kinetic theory's (its Fig. 5.10:
+"less than 80 %"), while its Fig. 5.9 finds eta close to the theory.
+
+Runs (or reuses) the reduced study's ``rheo3d`` sweep in OUT_DIR (12 runs, about 770 CPU-s,
+7 minutes on 2 cores), then prints per ring of every (phi_tilde, mu_p): phi, T_g, P, D_rz,
+sigma_rz, the measured eta = -sigma_rz / D_rz, eta_kin of eq. 5.5 (e = 0.75 frictionless,
+the renormalised 0.616 frictional, eq. 2.55), their ratio, mu*/I and a_KT; the kinetic and
+contact parts of sigma_rz at phi_tilde = 0.9; and a fitted with and without the grains'
+contacts with the target's particles in the stress (eq. 5.1 sums over "the particles
+located at r"; the target's lie below the layer).
+
+Usage::
+
+    python scripts/jet_rheo3d_viscosity.py OUT_DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from grainflow import interrupt
+from grainflow.analysis import kinetic_theory as kt
+from grainflow.analysis.jet.rheology import fit_friction_3d, layer_fields_3d, pool
+from grainflow.frame import Contacts, Frame
+from grainflow.scenarios.jet import TARGET_TYPE
+from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs
+from grainflow.studies.points import run_sweeps
+
+
+def without_target_contacts(frame: Frame) -> Frame:
+    """The frame with every contact that involves a target particle left out."""
+    c = frame.contacts
+    target = np.asarray(frame.id)[np.asarray(frame.type) == TARGET_TYPE]
+    keep = ~(np.isin(c.i, target) | np.isin(c.j, target))
+    return dataclasses.replace(frame, contacts=Contacts(
+        i=c.i[keep], j=c.j[keep], force=np.asarray(c.force)[keep],
+        branch=np.asarray(c.branch)[keep], kind=np.asarray(c.kind)[keep]))
+
+
+def print_rings(key: tuple[float, float], layer) -> None:
+    e = 0.75 if key[1] == 0.0 else float(kt.effective_restitution(0.75, key[1]))
+    v = layer.values
+    phi, T, P, D = v["phi"], v["T_g"], v["P"], v["D"]
+    shear = v["sigma"][:, 0, 2]
+    print(f"phi_tilde {key[0]}, mu_p {key[1]} (e = {e:.3f})")
+    print("  r/R    phi    T_g      P     D_rz  sigma_rz     eta  eta_kin  ratio  mu*/I  a_KT")
+    for k, r in enumerate(layer.scaled_centres):
+        ok = 0.0 < phi[k] < 0.64
+        eta_kin = float(kt.shear_viscosity(phi[k], T[k], e, 1.0, 1.0)) if ok else np.nan
+        a_kt = float(kt.friction_slope(phi[k], e)) if ok else np.nan
+        eta = -shear[k] / D[k]
+        print(f"  {r:.2f}  {phi[k]:.3f}  {T[k]:.4f}  {P[k]:.4f}  {D[k]:+.4f}  {shear[k]:+.5f}"
+              f"  {eta:6.3f}  {eta_kin:6.3f}  {eta / eta_kin:5.2f}  {v['mu'][k] / v['I'][k]:5.2f}"
+              f"  {a_kt:4.2f}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out", type=Path)
+    args = parser.parse_args(argv)
+    points = run_sweeps({"rheo3d": sweep_specs(REDUCED)["rheo3d"]}, args.out,
+                        progress="plain")["rheo3d"]
+    print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
+    groups: dict[str, dict[tuple[float, float], list]] = {"with": {}, "without": {}}
+    for p, rundir in zip(points.params, points.rundirs):
+        frames, config = _run_frames(rundir)
+        radius = 0.5 * config["jet"]["target_diameter"]
+        key = (float(p["jet.phi_tilde"]), float(p["jet.mu_p"]))
+        for name, fr in (("with", frames), ("without", [without_target_contacts(f)
+                                                        for f in frames])):
+            groups[name].setdefault(key, []).append(
+                layer_fields_3d(fr, radius, window=REDUCED.rheo3d_window, blocks=4))
+    layers = {name: {k: pool(v) for k, v in sorted(g.items())} for name, g in groups.items()}
+    for key, layer in layers["with"].items():
+        print_rings(key, layer)
+        if key[0] == 0.9:
+            main_fields = layer.sources[0]
+            kinetic = main_fields.kinetic_stress.reshape(-1, 3, 3)[:, 0, 2]
+            contact = main_fields.contact_stress().reshape(-1, 3, 3)[:, 0, 2]
+            print("  sigma_rz kinetic part", np.round(kinetic, 4), "contact part",
+                  np.round(contact, 4))
+    for name, by_key in layers.items():
+        for mu_p in sorted({k[1] for k in by_key}):
+            sel = [lay for k, lay in by_key.items() if k[1] == mu_p]
+            fit = fit_friction_3d(sel)
+            print(f"a, mu_p = {mu_p}, {name} the grain-target contacts in the stress: "
+                  f"{fit.a:.3f} ± {fit.a_err:.3f}")
+
+
+if __name__ == "__main__":
+    interrupt.run(main)
