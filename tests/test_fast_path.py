@@ -6,8 +6,7 @@ Each case runs the same set-up twice, once with the compiled loop switched off
 (``fast_path_min_steps`` above the run's length) and once with it on from the first step,
 and compares positions, velocities, spins, forces, contact histories and the clock bit for
 bit; it also checks that the loop really took most of the steps and that the neighbour list
-was rebuilt in between (the loop hands those steps to Python for the rebuild, then resumes
-with their forces).
+was rebuilt in between (the loop hands those steps back to Python).
 """
 
 from __future__ import annotations
@@ -116,8 +115,6 @@ def test_compiled_steps_are_bitwise_python_steps(case: str) -> None:
     assert python._fast_path.steps_done == 0
     assert compiled._fast_path.steps_done > steps // 2
     assert compiled.rebuilds > 2  # steps that needed a new list went back to Python
-    # ... and the loop finished most of them after the rebuild (not the start's build)
-    assert 2 * compiled._fast_path.resumed >= compiled.rebuilds
     _assert_same(python, compiled)
     if case == "two laws and a moving wall":
         from grainflow.frame import WALL

@@ -21,9 +21,7 @@ order on the same arrays, so a run is bitwise the same either way (tests/test_fa
 The loop stops early, returning control to Python, after the first half of a step after
 which the list may miss a pair (:mod:`grainflow.kernels.list_check`: some particle has moved
 more than half the skin, or under the relative check some pair the skin against each other):
-Python rebuilds the list, and the loop resumes with that step's forces. (Finishing the step
-in Python instead cost a small system as much again as the rebuild: the study's 2D hopper
-of 1600 grains rebuilds every ten or so steps.) An operation without a step call (or more than :data:`SLOTS` of them) means
+that step is finished in Python, where the list is rebuilt. An operation without a step call (or more than :data:`SLOTS` of them) means
 the simulation steps in Python, as before.
 """
 
@@ -99,15 +97,13 @@ def step_call(template: Any, name: str, args: tuple, *, serial_twins: bool = Tru
     return StepCall(adapter, args)
 
 
-def _run_steps(k, time, dt, resume, check_args, pre_args, post_args,
+def _run_steps(k, time, dt, check_args, pre_args, post_args,
                joined_args, a0, a1, a2, a3, a4, a5, a6, a7):
     """Up to ``k`` steps from clock time ``time``: ``(steps done, new time, pending)``.
 
     ``pending``: the last step's first half is done but the list may miss a pair
-    (``STALE(check_args)``); the step is not counted in the steps done, and the caller
-    rebuilds the list and finishes it: ``resume`` true starts a run there, with the
-    step's forces (the first half is already done and the list was just built, so neither
-    is repeated). Otherwise the
+    (``STALE(check_args)``); the caller finishes that step (not counted in
+    the steps done), rebuilding the list and computing every force in Python. Otherwise the
     force operations are told which step is the ``k``-th, the last. Between two steps of
     the run the second half of one and the first half of the next are one call,
     ``JOINED`` (:meth:`~grainflow.engine.operations.Integrator.step_calls`). Template:
@@ -116,10 +112,9 @@ def _run_steps(k, time, dt, resume, check_args, pre_args, post_args,
     """
     if k == 0:
         return 0, time, False
-    if not resume:
-        PRE(pre_args, time, dt)  # noqa: F821 (bound names)
+    PRE(pre_args, time, dt)  # noqa: F821 (bound names)
     for s in range(k):
-        if (s > 0 or not resume) and STALE(check_args):  # noqa: F821
+        if STALE(check_args):  # noqa: F821
             return s, time, True
         last = s == k - 1
         OP0(a0, time, dt, last)  # noqa: F821
@@ -150,8 +145,6 @@ class FastPath:
         self.steps_done = 0
         #: Times the step calls were collected (for tests and profiles).
         self.collections = 0
-        #: Steps the loop finished after a list rebuild, resuming (for tests and profiles).
-        self.resumed = 0
 
     def forget(self) -> None:
         """Drop the step calls: something an operation reads may have been replaced (a run
@@ -191,10 +184,9 @@ class FastPath:
         return halves[0], halves[1], halves[2], ops
 
     def run(self, sim: Any, k: int,
-            calls: tuple[StepCall, StepCall, StepCall, list[StepCall]],
-            resume: bool = False) -> tuple[int, float, bool]:
-        """Up to ``k`` steps (see :func:`_run_steps`; ``resume``: the first is a pending
-        step to finish, its list just rebuilt); the caller advances the clock."""
+            calls: tuple[StepCall, StepCall, StepCall, list[StepCall]]
+            ) -> tuple[int, float, bool]:
+        """Up to ``k`` steps (see :func:`_run_steps`); the caller advances the clock."""
         pre, post, joined, ops = calls
         ops = ops + [StepCall(nothing, ())] * (SLOTS - len(ops))
         nl = sim.neighbors
@@ -207,10 +199,9 @@ class FastPath:
                         "STALE": stale}
             bindings.update({f"OP{i}": op.adapter for i, op in enumerate(ops)})
             loop = self._loops[key] = specialize(_run_steps, "run_steps", bindings)
-        done, time, pending = loop(k, sim.clock.time, sim.clock.dt, resume,
+        done, time, pending = loop(k, sim.clock.time, sim.clock.dt,
                                    nl.check_args(sim.state, sim.geometry),
                                    pre.args, post.args, joined.args,
                                    *(op.args for op in ops))
         self.steps_done += done
-        self.resumed += resume and done > 0
         return done, time, pending

@@ -19,9 +19,8 @@ Order of work within one step of :meth:`Simulation.run` (the same for every set-
     9. the ``"auto"`` thread choice, when its window ends (:mod:`grainflow.engine.threads`)
 
 Steps 1-5 of the steps where nothing of 6-9 is due run in one compiled loop when every
-operation offers a compiled step call (:mod:`grainflow.engine.fast_path`); when a step's
-list must be rebuilt the loop returns after its step 1, the list is rebuilt here, and the
-loop resumes at that step's forces. The order of work and the result are the same.
+operation offers a compiled step call (:mod:`grainflow.engine.fast_path`); a step whose
+list must be rebuilt is finished here. The order of work and the result are the same.
 
 Before the first step forces are evaluated once without advancing contact histories
 (LAMMPS's set-up call), unless they are already current (e.g. after a checkpoint load).
@@ -460,7 +459,10 @@ class Simulation:
                         if calls is None:
                             fast = None  # some operation steps only in Python
                 if calls is not None:
-                    pending = self._fast_steps(fast, quiet, calls)
+                    done, clock.time, pending = fast.run(self, quiet, calls)
+                    clock.step += done
+                    self.particle_steps += self.state.n * done
+                    self.forces_current = True
                 else:
                     integ.pre_force(ctx)
                     pending = True
@@ -475,28 +477,6 @@ class Simulation:
         finally:
             self.wall_seconds += _time.perf_counter() - t0
             numba.set_num_threads(before)
-
-    def _fast_steps(self, fast: FastPath, quiet: int, calls: tuple) -> bool:
-        """Take ``quiet`` steps in the compiled loop, rebuilding the list in Python each
-        time the loop finds it stale and resuming the loop with that step's forces; True
-        if a step is left pending (its first half done, the list current) for Python to
-        finish, because some operation has no step call for the new list."""
-        clock = self.clock
-        resume = False
-        while True:
-            done, clock.time, pending = fast.run(self, quiet, calls, resume)
-            clock.step += done
-            self.particle_steps += self.state.n * done
-            self.forces_current = True
-            quiet -= done
-            if not pending:
-                return False
-            self._assign_types()
-            self._refresh_list()
-            calls = fast.calls(self)
-            if calls is None:
-                return True
-            resume = True
 
     def _quiet_steps(self, end: int, tuner: ThreadTuner | None,
                      until: Callable[["Simulation"], bool] | None, until_every: int) -> int:
