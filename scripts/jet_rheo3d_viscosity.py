@@ -35,7 +35,8 @@ import numpy as np
 
 from grainflow import interrupt
 from grainflow.analysis import kinetic_theory as kt
-from grainflow.analysis.jet.rheology import fit_friction_3d, layer_fields_3d, pool
+from grainflow.analysis.jet.rheology import (fit_friction_3d, layer_fields_3d, pool,
+                                              viscosity_check)
 from grainflow.frame import Contacts, Frame
 from grainflow.scenarios.jet import TARGET_TYPE
 from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs
@@ -54,19 +55,14 @@ def without_target_contacts(frame: Frame) -> Frame:
 
 def print_rings(key: tuple[float, float], layer) -> None:
     e = 0.75 if key[1] == 0.0 else float(kt.effective_restitution(0.75, key[1]))
+    c = viscosity_check(layer, e)
     v = layer.values
-    phi, T, P, D = v["phi"], v["T_g"], v["P"], v["D"]
-    shear = v["sigma"][:, 0, 2]
     print(f"phi_tilde {key[0]}, mu_p {key[1]} (e = {e:.3f})")
     print("  r/R    phi    T_g      P     D_rz  sigma_rz     eta  eta_kin  ratio  mu*/I  a_KT")
-    for k, r in enumerate(layer.scaled_centres):
-        ok = 0.0 < phi[k] < 0.64
-        eta_kin = float(kt.shear_viscosity(phi[k], T[k], e, 1.0, 1.0)) if ok else np.nan
-        a_kt = float(kt.friction_slope(phi[k], e)) if ok else np.nan
-        eta = -shear[k] / D[k]
-        print(f"  {r:.2f}  {phi[k]:.3f}  {T[k]:.4f}  {P[k]:.4f}  {D[k]:+.4f}  {shear[k]:+.5f}"
-              f"  {eta:6.3f}  {eta_kin:6.3f}  {eta / eta_kin:5.2f}  {v['mu'][k] / v['I'][k]:5.2f}"
-              f"  {a_kt:4.2f}")
+    for k, r in enumerate(c.r):
+        print(f"  {r:.2f}  {c.phi[k]:.3f}  {v['T_g'][k]:.4f}  {v['P'][k]:.4f}  {c.D[k]:+.4f}"
+              f"  {v['sigma'][k, 0, 2]:+.5f}  {c.eta[k]:6.3f}  {c.eta_kin[k]:6.3f}"
+              f"  {c.ratio[k]:5.2f}  {c.slope[k]:5.2f}  {c.slope_kin[k]:4.2f}")
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -518,3 +518,30 @@ def test_bad_inputs_raise_value_error_naming_the_argument(call, match):
         frames = [make_frame([[1.0, 0.3], [7.0, -4.0]], [[-1, 0]] * 2)]
     with pytest.raises(ValueError, match=match):
         call(frames)
+
+
+def test_viscosity_check_finds_a_kinetic_layer_kinetic():
+    """Rings built with the kinetic theory's pressure and viscosity (sigma_rz = -eta_kin D_rz,
+    eqs. 5.2, 5.5, 5.12) give eta/eta_kin = 1 and mu*/I = friction_slope; a layer with twice
+    the shear stress gives 2 and twice the slope."""
+    from grainflow.analysis import kinetic_theory as kt
+
+    phi = np.array([0.2, 0.35, 0.5])
+    T = np.array([0.03, 0.02, 0.01])
+    D = np.array([0.04, -0.02, 0.01])
+    e = 0.75
+    P = 6 * phi / np.pi * T * kt.pressure_ratio(phi, e)
+    for factor in (1.0, 2.0):
+        shear = -factor * kt.shear_viscosity(phi, T, e, 1.0, 1.0) * D
+        sigma = np.zeros((3, 3, 3))
+        sigma[:, 0, 2] = sigma[:, 2, 0] = shear
+        table = _table(3, phi=phi, T_g=T, P=P, D=D, mu=-shear / P, I=np.abs(D) / np.sqrt(P))
+        layer = jr.LayerFields(dim=3, target_radius=1.0, layer=(0.0, 5.0), edges=table.edges,
+                               values={**table.values, "sigma": sigma}, errors=table.errors)
+        check = jr.viscosity_check(layer, e)
+        np.testing.assert_allclose(check.ratio, factor, rtol=1e-12)
+        np.testing.assert_allclose(check.slope * np.sign(D), factor * kt.friction_slope(phi, e),
+                                   rtol=1e-12)
+        np.testing.assert_allclose(check.slope_kin, kt.friction_slope(phi, e), rtol=1e-12)
+    with pytest.raises(ValueError, match="3D layer"):
+        jr.viscosity_check(_table(2, phi=phi), e)

@@ -263,6 +263,26 @@ def _rheology_3d(points: SweepPoints, window: tuple[float, float]
     return {key: pool(layers) for key, layers in sorted(groups.items())}, flatness
 
 
+def _viscosity_lines(label: str, restitution: float, layers: dict[float, Any]) -> list[str]:
+    """The 3D layer's shear viscosity against kinetic theory, ring by ring (Fig. 5.9;
+    :func:`~grainflow.analysis.jet.rheology.viscosity_check`), as a report table."""
+    from grainflow.analysis.jet.rheology import viscosity_check
+
+    lines = ["", f"3D ({label}) shear viscosity eta = -sigma_rz / D_rz against kinetic theory "
+             f"(eq. 5.5 at e = {restitution:.3f}; the seed's Fig. 5.9 finds the ratio near 1 for "
+             "r/R_tar > 0.2), and mu*/I against a_KT, the slope of a flow with the kinetic "
+             "theory's viscosity and pressure (docs/jets.md):", "",
+             "| φ̃0 | r/R_tar | phi | D_rz | eta / eta_kin | mu*/I | a_KT |",
+             "|---|---|---|---|---|---|---|"]
+    for phi_tilde, layer in sorted(layers.items()):
+        c = viscosity_check(layer, restitution)
+        lines += [f"| {phi_tilde:g} | {r:.1f} | {phi:.3f} | {D:+.4f} | {ratio:.2f} | {slope:.2f} "
+                  f"| {kin:.2f} |"
+                  for r, phi, D, ratio, slope, kin in zip(c.r, c.phi, c.D, c.ratio, c.slope,
+                                                          c.slope_kin)]
+    return lines
+
+
 def _layers_2d(points: SweepPoints, window: tuple[float, float]) -> dict[float, tuple[Any, Any]]:
     """Pooled layers (a) and (b) per phi_tilde of the 2D rheology sweep."""
     from grainflow.analysis.jet.rheology import layer_fields_2d, pool
@@ -434,6 +454,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
             lines.append(f"![mu*(I) 3D {label}](mu_I_3d_{label}.png)")
             e = float(effective_restitution(0.75, mu_p)) if mu_p > 0 else 0.75
             checks.append((label, [kinetic_theory_check(lay, e, 3) for lay in mine]))
+            lines += _viscosity_lines(label, e, {phi: lay for (phi, mu), lay in layers3.items()
+                                                 if mu == mu_p})
         if dense is not None:
             plot_stress_profiles(dense, out / f"stress_3d_{label}.png")
             lines.append(f"![stress 3D {label}](stress_3d_{label}.png)")

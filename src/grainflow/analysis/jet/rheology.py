@@ -51,7 +51,8 @@ from grainflow.analysis.checks import frozen as _frozen
 from grainflow.analysis.cg import (CGFields, Cartesian, Cylindrical, Heaviside, coarse_grain_grids,
                                    combine, select_types)
 from grainflow.analysis.jet._common import TARGET_TYPE, check_window
-from grainflow.analysis.kinetic_theory import RANDOM_CLOSE_PACKING, pressure_ratio
+from grainflow.analysis.kinetic_theory import (RANDOM_CLOSE_PACKING, friction_slope,
+                                               pressure_ratio, shear_viscosity)
 from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, MuPowerLawFit,
                                          effective_friction, fit_divergence, fit_mu_linear,
                                          fit_mu_of_I, fit_mu_power_law, flatness,
@@ -59,6 +60,7 @@ from grainflow.analysis.rheology import (DivergenceFit, MuLinearFit, MuOfIFit, M
 from grainflow.frame import Frame
 
 __all__ = ["GRAIN_TYPES", "TARGET_TYPE", "FitChoice2D", "KineticTheoryCheck", "LayerFields",
+           "ViscosityCheck", "viscosity_check",
            "fit_choices_2d", "fit_choices_3d", "fit_divergence_2d", "fit_friction_2d",
            "fit_friction_3d", "kinetic_theory_check",
            "VALUE_NAMES", "layer_flatness", "layer_fluctuations", "layer_fields_2d",
@@ -583,6 +585,63 @@ def kinetic_theory_check(layer: LayerFields, restitution: float, dim: int | None
         measured_components=layer.values["P_alpha_over_nT_alpha"],
         measured_components_err=layer.errors["P_alpha_over_nT_alpha"],
         restitution=float(restitution), dim=dim, phi_f=phi_f, phi_c=phi_c)
+
+
+@dataclass(frozen=True)
+class ViscosityCheck:
+    """Measured shear viscosity of a 3D layer against Garzo-Dufty, eqs. (5.4)-(5.12).
+
+    Attributes (per ring; NaN where phi is not in (0, phi_c) or D_rz = 0)
+    ----------
+    r : ring centres / R_tar.
+    phi, D : packing fraction and strain rate D_rz.
+    eta : the measured viscosity -sigma_rz / D_rz (eq. 5.12: sigma_rz = -eta D_rz).
+    eta_kin : eq. (5.5) at the ring's phi and T_g (d, m of the layer).
+    ratio : eta / eta_kin (the thesis's Fig. 5.9 finds it close to 1 for r/R_tar > 0.2).
+    slope : the ring's mu* / I (= eta / sqrt(P m / d)).
+    slope_kin : :func:`~grainflow.analysis.kinetic_theory.friction_slope`, the mu* / I a ring
+        with the kinetic theory's viscosity and pressure would have.
+    restitution : e used (frictional grains: the renormalised e of eq. 2.55).
+    """
+
+    r: np.ndarray
+    phi: np.ndarray
+    D: np.ndarray
+    eta: np.ndarray
+    eta_kin: np.ndarray
+    ratio: np.ndarray
+    slope: np.ndarray
+    slope_kin: np.ndarray
+    restitution: float
+
+
+def viscosity_check(layer: LayerFields, restitution: float) -> ViscosityCheck:
+    """The 3D layer's shear viscosity eta = -sigma_rz / D_rz ring by ring against the
+    kinetic theory's eta_kin(phi, T_g) (eq. 5.5; Fig. 5.9 of the thesis), and the ring's
+    mu*/I against the slope a flow with that viscosity would give (Sec. 5.3.3: under
+    I = D_rz sqrt(m / (P d)), mu*/I = eta / sqrt(P m / d)). ``restitution``: e, or the
+    effective e of eq. (2.55) for frictional grains."""
+    if layer.dim != 3:
+        raise ValueError("layer: the kinetic-theory viscosity is for spheres; give a 3D "
+                         "layer (layer_fields_3d)")
+    v = layer.values
+    phi = np.asarray(v["phi"], dtype=float)
+    D = np.asarray(v["D"], dtype=float)
+    ok = np.isfinite(phi) & (phi > 0) & (phi < RANDOM_CLOSE_PACKING[3]) & np.isfinite(v["T_g"])
+    eta_kin = np.full(phi.shape, np.nan)
+    slope_kin = np.full(phi.shape, np.nan)
+    e = float(restitution)
+    if np.any(ok):
+        eta_kin[ok] = shear_viscosity(phi[ok], np.maximum(v["T_g"][ok], 0.0), e,
+                                      layer.diameter, layer.mass)
+        slope_kin[ok] = friction_slope(phi[ok], e)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        eta = np.where(D != 0, -np.asarray(v["sigma"])[:, 0, 2] / D, np.nan)
+        slope = np.where(np.asarray(v["I"]) > 0, v["mu"] / v["I"], np.nan)
+        return ViscosityCheck(r=_frozen(layer.scaled_centres), phi=_frozen(phi), D=_frozen(D),
+                              eta=_frozen(eta), eta_kin=_frozen(eta_kin),
+                              ratio=_frozen(eta / eta_kin), slope=_frozen(slope),
+                              slope_kin=_frozen(slope_kin), restitution=e)
 
 
 # --------------------------------------------------------------------------------------------
