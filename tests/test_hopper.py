@@ -657,3 +657,23 @@ def test_regime_table_tells_a_viscous_law_from_beverloo() -> None:
     beverloo = next(r for r in rows if "(Beverloo)" in r)
     chi = [float(r.rstrip(" |").rsplit("|", 1)[1]) for r in (viscous, beverloo)]
     assert chi[0] < 1e-6 < 1.0 < chi[1]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_hopper_reads_the_run_sections_integrator_and_list_check(dim):
+    """``run.integrator`` and ``run.list_check`` reach the hopper's simulation (they were
+    silently ignored), and the defaults stay velocity Verlet and the absolute check."""
+    from grainflow.config.build import build_simulation
+
+    shape = ({"n": 60, "width": 10.0, "orifice_width": 4.0} if dim == 2
+             else {"n": 200, "width": 8.0, "orifice_width": 3.0})
+    hopper = {**shape, "E_sp": 1000.0, "E_w": 1000.0, "lam": math.inf}
+    base = {"scenario": f"hopper{dim}d", "dim": dim, "run": {"steps": 50}, "hopper": hopper}
+    sim = build_simulation(load_config(base), prepare=False)
+    assert sim.integrator.name == "verlet" and sim.neighbors.check == "absolute"
+    chosen = {**base, "run": {"steps": 50, "integrator": "adams_bashforth2",
+                              "list_check": "relative"}}
+    sim = build_simulation(load_config(chosen), prepare=False)
+    assert sim.integrator.name == "adams_bashforth2" and sim.neighbors.check == "relative"
+    sim.run(50)  # and it steps
+    assert sim.step == 50

@@ -220,3 +220,16 @@ def test_an_unresolved_cohesive_shell_warns_at_the_run():
         build_stream(_tiny_stream(cohesion_force="1000 nN", cohesion_range="100 nm"),
                      dt=1e-6).check_time_step()
         build_stream(_tiny_stream(**thin), dt=1e-7).check_time_step()
+
+
+def test_stream_reads_the_run_sections_integrator():
+    """``run.integrator`` reaches the stream's simulation (it was silently ignored)."""
+    from grainflow.config.build import build_simulation
+
+    base = {"scenario": "stream", "dim": 3, "stream": dict(TINY_STREAM)}
+    sim = build_simulation(load_config({**base, "run": {"steps": 10}}), prepare=False)
+    assert sim.integrator.name == "verlet"
+    sim = build_simulation(load_config({**base, "run": {"steps": 10,
+                                                        "integrator": "adams_bashforth2"}}),
+                           prepare=False)
+    assert sim.integrator.name == "adams_bashforth2"

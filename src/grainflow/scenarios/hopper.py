@@ -342,9 +342,12 @@ def _defaults(section: HopperSection, dim: int) -> tuple[int, float]:
 
 def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float | None = None,
                  skin: float | None = None, sort_every: int = 10, check_every: int = 100,
-                 max_overlap_fraction: float = 1.0) -> "Simulation":
+                 max_overlap_fraction: float = 1.0, integrator: str = "verlet",
+                 list_check: str | None = None) -> "Simulation":
     """The hopper at t = 0: random fill (not yet relaxed, see :func:`prepare`), walls, law,
     gravity, drag and the reinsertion updater (:func:`hopper_updater` finds it).
+    ``integrator`` and ``list_check`` are the ``[run]`` fields of the same names (default
+    velocity Verlet and the absolute list check).
 
     ``max_overlap_fraction`` (the health check) is 1.0 of the smaller radius by default: at
     the seed's E_sp = 100 the grains at the bottom of a 1600-grain pile overlap by about
@@ -352,6 +355,7 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
     physics of the soft model, not an instability.
     """
     from grainflow.engine.forces import Drag, Gravity
+    from grainflow.engine.integrators import integrator_by_name
     from grainflow.engine.simulation import Simulation
     from grainflow.frame import Box
     from grainflow.insertion import Bidisperse, BoxRegion, CylinderRegion, random_fill
@@ -437,8 +441,9 @@ def build_hopper(section: HopperSection, dim: int, *, seed: int = 0, dt: float |
         # more speed (rough) at 1.35 times the listed pairs
         skin = 0.25 * float(np.mean(rest_length(np.pi * r**2, section.n_vertices)))
     sim = Simulation(state, 1.0, None if smooth else law, skin=skin, sort_every=sort_every,
-                     check_every=check_every, max_overlap_fraction=max_overlap_fraction,
-                     seed=seed)
+                     integrator=integrator_by_name(integrator),
+                     list_check=list_check or "absolute", check_every=check_every,
+                     max_overlap_fraction=max_overlap_fraction, seed=seed)
     if dp:
         sim.add_force(ShapeForce(section.K_a, section.K_l, section.K_b,
                                  n_vertices=section.n_vertices))
@@ -676,7 +681,8 @@ def _build(config: Any, dim: int) -> "Simulation":
     run = config.run
     return build_hopper(_section(config), dim, seed=run.seed, dt=run.dt, skin=run.skin,
                         sort_every=run.sort_every, check_every=run.check_every,
-                        max_overlap_fraction=run.max_overlap_fraction)
+                        max_overlap_fraction=run.max_overlap_fraction,
+                        integrator=run.integrator, list_check=run.list_check)
 
 
 def build_hopper2d(config: Any) -> "Simulation":

@@ -168,10 +168,13 @@ def grain_mass(section: StreamSection) -> float:
 def build_stream(section: StreamSection, *, seed: int = 0, dt: float | None = None,
                  dt_fraction: float = 0.02, skin: float | None = None,
                  sort_every: int = 10, list_check: str | None = None,
-                 check_every: int = 100, max_overlap_fraction: float = 0.5) -> Any:
+                 check_every: int = 100, max_overlap_fraction: float = 0.5,
+                 integrator: str = "verlet") -> Any:
     """The hopper at t = 0 (module docstring): rained-in grains over a closed lid, walls,
-    the M1 + M2 law, gravity, the lid's opening, replenishment and deletion."""
+    the M1 + M2 law, gravity, the lid's opening, replenishment and deletion. The keywords
+    are the ``[run]`` fields of the same names."""
     from grainflow.engine.forces import Gravity
+    from grainflow.engine.integrators import integrator_by_name
     from grainflow.engine.simulation import Simulation
     from grainflow.frame import Box
     from grainflow.insertion import (CylinderRegion, DeleteRegion, Monodisperse, ReplenishTo,
@@ -211,6 +214,7 @@ def build_stream(section: StreamSection, *, seed: int = 0, dt: float | None = No
     if skin is None:
         skin = DEFAULT_SKIN * d
     sim = Simulation(state, step, law, skin=skin, sort_every=sort_every,
+                     integrator=integrator_by_name(integrator),
                      list_check=list_check or DEFAULT_LIST_CHECK, check_every=check_every,
                      max_overlap_fraction=max_overlap_fraction, seed=seed)
     walls = [Cylinder((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), r_h, inside=True,
@@ -247,7 +251,8 @@ def _build(config: Any) -> Any:
     return build_stream(section, seed=run.seed, dt=run.dt, dt_fraction=run.dt_fraction,
                         skin=run.skin, sort_every=run.sort_every, list_check=run.list_check,
                         check_every=run.check_every,
-                        max_overlap_fraction=run.max_overlap_fraction)
+                        max_overlap_fraction=run.max_overlap_fraction,
+                        integrator=run.integrator)
 
 
 register(Scenario("stream", "grainflow.scenarios.stream:_build", section="stream",
