@@ -20,9 +20,12 @@ contact parts of sigma_rz at phi_tilde = 0.9; and a fitted with and without the 
 contacts with the target's particles in the stress (eq. 5.1 sums over "the particles
 located at r"; the target's lie below the layer).
 
+``--target-spacing 0.5`` runs the same on a smoother target (wall particles half a diameter
+apart; the thesis gives no lattice); use another OUT_DIR.
+
 Usage::
 
-    python scripts/jet_rheo3d_viscosity.py OUT_DIR
+    python scripts/jet_rheo3d_viscosity.py OUT_DIR [--target-spacing 0.5]
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ from grainflow.frame import Contacts, Frame
 from grainflow.scenarios.jet import TARGET_TYPE
 from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs
 from grainflow.studies.points import run_sweeps
+from grainflow.sweep import parse_sweep
 
 
 def without_target_contacts(frame: Frame) -> Frame:
@@ -68,9 +72,16 @@ def print_rings(key: tuple[float, float], layer) -> None:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", type=Path)
+    parser.add_argument("--target-spacing", type=float, default=None,
+                        help="spacing of the target's wall particles in d (default: the "
+                        "scenario's, 1: touching)")
     args = parser.parse_args(argv)
-    points = run_sweeps({"rheo3d": sweep_specs(REDUCED)["rheo3d"]}, args.out,
-                        progress="plain")["rheo3d"]
+    spec = sweep_specs(REDUCED)["rheo3d"]
+    if args.target_spacing is not None:
+        raw = spec.model_dump()
+        raw["base"]["jet"]["target_spacing"] = args.target_spacing
+        spec = parse_sweep(raw)
+    points = run_sweeps({"rheo3d": spec}, args.out, progress="plain")["rheo3d"]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
     groups: dict[str, dict[tuple[float, float], list]] = {"with": {}, "without": {}}
     for p, rundir in zip(points.params, points.rundirs):
