@@ -24,9 +24,9 @@ from pathlib import Path
 
 from grainflow import interrupt
 from grainflow.analysis.jet.rheology import fit_divergence_2d, fit_friction_2d
-from grainflow.studies.jet_study import FULL, _fit_choices_lines, _layers_2d, sweep_specs
+from grainflow.studies.jet_study import (FULL, _fit_choices_lines, _layers_2d, sweep_specs,
+                                        with_target_spacing)
 from grainflow.studies.points import run_sweeps
-from grainflow.sweep import parse_sweep
 
 
 def _fits(layers: dict, label: str) -> None:
@@ -51,11 +51,7 @@ def main(argv: list[str] | None = None) -> None:
                         "scenario's, 1: touching)")
     args = parser.parse_args(argv)
     plan = dataclasses.replace(FULL, replicas=args.replicas, rheology_replicas=args.replicas)
-    spec = sweep_specs(plan)["rheo2d"]
-    if args.target_spacing is not None:
-        raw = spec.model_dump()
-        raw["base"]["jet"]["target_spacing"] = args.target_spacing
-        spec = parse_sweep(raw)
+    spec = with_target_spacing(sweep_specs(plan)["rheo2d"], args.target_spacing)
     points = run_sweeps({"rheo2d": spec}, args.out, progress="plain")["rheo2d"]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
     for window in (FULL.rheo2d_window, (120.0, 200.0)):

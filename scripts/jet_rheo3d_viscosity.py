@@ -42,9 +42,8 @@ from grainflow.analysis.jet.rheology import (fit_friction_3d, layer_fields_3d, p
                                               viscosity_check)
 from grainflow.frame import Contacts, Frame
 from grainflow.scenarios.jet import TARGET_TYPE
-from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs
+from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs, with_target_spacing
 from grainflow.studies.points import run_sweeps
-from grainflow.sweep import parse_sweep
 
 
 def without_target_contacts(frame: Frame) -> Frame:
@@ -76,11 +75,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="spacing of the target's wall particles in d (default: the "
                         "scenario's, 1: touching)")
     args = parser.parse_args(argv)
-    spec = sweep_specs(REDUCED)["rheo3d"]
-    if args.target_spacing is not None:
-        raw = spec.model_dump()
-        raw["base"]["jet"]["target_spacing"] = args.target_spacing
-        spec = parse_sweep(raw)
+    spec = with_target_spacing(sweep_specs(REDUCED)["rheo3d"], args.target_spacing)
     points = run_sweeps({"rheo3d": spec}, args.out, progress="plain")["rheo3d"]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
     groups: dict[str, dict[tuple[float, float], list]] = {"with": {}, "without": {}}

@@ -120,3 +120,16 @@ def test_per_run_analyses_on_a_real_run(small_jet_run: Path) -> None:
     aniso = jet_study.anisotropy_summary(small_jet_run)
     assert aniso["eps"] == pytest.approx(0.6155, abs=1e-3)
     assert abs(aniso["v2"]) < 0.5 and aniso["v2_err"] > 0
+
+
+def test_with_target_spacing_changes_only_the_base_jets_target():
+    from grainflow.studies.jet_study import REDUCED, sweep_specs, with_target_spacing
+
+    spec = sweep_specs(REDUCED)["rheo3d"]
+    assert with_target_spacing(spec, None) is spec
+    smooth = with_target_spacing(spec, 0.5).model_dump()
+    assert smooth["base"]["jet"]["target_spacing"] == 0.5
+    smooth["base"]["jet"].pop("target_spacing")
+    plain = spec.model_dump()
+    plain["base"]["jet"].pop("target_spacing", None)
+    assert smooth == plain

@@ -145,6 +145,19 @@ def sweep_specs(plan: JetPlan) -> dict[str, Any]:
             for name, spec in raw.items()}
 
 
+def with_target_spacing(spec: Any, spacing: float | None) -> Any:
+    """``spec`` (a sweep of this study) with its base jet's target wall particles ``spacing``
+    diameters apart (the thesis gives no lattice; docs/jets.md measures a smoother target);
+    ``spec`` itself when ``spacing`` is None."""
+    from grainflow.sweep import parse_sweep
+
+    if spacing is None:
+        return spec
+    raw = spec.model_dump()
+    raw["base"]["jet"]["target_spacing"] = spacing
+    return parse_sweep(raw)
+
+
 # ------------------------------------------------------------------- per-run analyses
 #: Fraction of a scattering run after which the outgoing flow is steady: the per-run
 #: analyses read only the run directory, so the window is t = 0.4-1 of the run's duration
