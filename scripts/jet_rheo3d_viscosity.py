@@ -18,7 +18,8 @@ sigma_rz, the measured eta = -sigma_rz / D_rz, eta_kin of eq. 5.5 (e = 0.75 fric
 the renormalised 0.616 frictional, eq. 2.55), their ratio, mu*/I and a_KT; the kinetic and
 contact parts of sigma_rz at phi_tilde = 0.9; and a fitted with and without the grains'
 contacts with the target's particles in the stress (eq. 5.1 sums over "the particles
-located at r"; the target's lie below the layer).
+located at r"; the target's lie below the layer), and with every contact force replaced by
+its normal part (what the tangential forces carry).
 
 ``--target-spacing 0.5`` runs the same on a smoother target (wall particles half a diameter
 apart; the thesis gives no lattice); use another OUT_DIR.
@@ -56,6 +57,17 @@ def without_target_contacts(frame: Frame) -> Frame:
         branch=np.asarray(c.branch)[keep], kind=np.asarray(c.kind)[keep]))
 
 
+def normal_parts_only(frame: Frame) -> Frame:
+    """The frame with every contact force replaced by its part along the branch vector (the
+    tangential forces left out of the stress)."""
+    c = frame.contacts
+    branch = np.asarray(c.branch, dtype=float)
+    length = np.linalg.norm(branch, axis=1)
+    unit = branch / np.where(length > 0, length, 1.0)[:, None]
+    normal = np.sum(np.asarray(c.force, dtype=float) * unit, axis=1)[:, None] * unit
+    return dataclasses.replace(frame, contacts=dataclasses.replace(c, force=normal))
+
+
 def print_rings(key: tuple[float, float], layer) -> None:
     e = 0.75 if key[1] == 0.0 else float(kt.effective_restitution(0.75, key[1]))
     c = viscosity_check(layer, e)
@@ -78,13 +90,15 @@ def main(argv: list[str] | None = None) -> None:
     spec = with_target_spacing(sweep_specs(REDUCED)["rheo3d"], args.target_spacing)
     points = run_sweeps({"rheo3d": spec}, args.out, progress="plain")["rheo3d"]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
-    groups: dict[str, dict[tuple[float, float], list]] = {"with": {}, "without": {}}
+    groups: dict[str, dict[tuple[float, float], list]] = {"with": {}, "without": {},
+                                                         "normal parts only, with": {}}
     for p, rundir in zip(points.params, points.rundirs):
         frames, config = _run_frames(rundir)
         radius = 0.5 * config["jet"]["target_diameter"]
         key = (float(p["jet.phi_tilde"]), float(p["jet.mu_p"]))
-        for name, fr in (("with", frames), ("without", [without_target_contacts(f)
-                                                        for f in frames])):
+        for name, fr in (("with", frames),
+                         ("without", [without_target_contacts(f) for f in frames]),
+                         ("normal parts only, with", [normal_parts_only(f) for f in frames])):
             groups[name].setdefault(key, []).append(
                 layer_fields_3d(fr, radius, window=REDUCED.rheo3d_window, blocks=4))
     layers = {name: {k: pool(v) for k, v in sorted(g.items())} for name, g in groups.items()}
