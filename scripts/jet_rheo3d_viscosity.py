@@ -41,7 +41,7 @@ from grainflow import interrupt
 from grainflow.analysis import kinetic_theory as kt
 from grainflow.analysis.jet.rheology import (fit_friction_3d, layer_fields_3d, pool,
                                               viscosity_check)
-from grainflow.frame import Contacts, Frame
+from grainflow.frame import Frame
 from grainflow.scenarios.jet import TARGET_TYPE
 from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs, with_target_spacing
 from grainflow.studies.points import run_sweeps
@@ -52,9 +52,7 @@ def without_target_contacts(frame: Frame) -> Frame:
     c = frame.contacts
     target = np.asarray(frame.id)[np.asarray(frame.type) == TARGET_TYPE]
     keep = ~(np.isin(c.i, target) | np.isin(c.j, target))
-    return dataclasses.replace(frame, contacts=Contacts(
-        i=c.i[keep], j=c.j[keep], force=np.asarray(c.force)[keep],
-        branch=np.asarray(c.branch)[keep], kind=np.asarray(c.kind)[keep]))
+    return dataclasses.replace(frame, contacts=c.select(keep))
 
 
 def normal_parts_only(frame: Frame) -> Frame:

@@ -557,3 +557,17 @@ def test_a_cell_crossed_only_by_a_branch_line_has_its_contact_stress():
     np.testing.assert_array_equal(f.kinetic_stress[1], 0.0)
     assert np.isnan(f.velocity[1]).all() and np.isnan(f.temperature[1])
     np.testing.assert_allclose(f.contact_stress()[:, 0, 0], [0.5, 1.0, 0.5])
+
+
+def test_contacts_select_keeps_the_chosen_rows_whole():
+    c = Contacts(i=np.array([1, 2, 3]), j=np.array([4, 0, 5]),
+                 force=np.arange(9.0).reshape(3, 3), branch=-np.arange(9.0).reshape(3, 3),
+                 kind=np.array([PAIR, WALL, PAIR], dtype=np.int8))
+    for rows in (np.array([True, False, True]), np.array([0, 2])):
+        s = c.select(rows)
+        np.testing.assert_array_equal(s.i, [1, 3])
+        np.testing.assert_array_equal(s.j, [4, 5])
+        np.testing.assert_array_equal(s.force, c.force[[0, 2]])
+        np.testing.assert_array_equal(s.branch, c.branch[[0, 2]])
+        np.testing.assert_array_equal(s.kind, [PAIR, PAIR])
+    np.testing.assert_array_equal(c.of_kind(WALL).i, [2])

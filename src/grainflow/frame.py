@@ -71,7 +71,10 @@ class Contacts:
 
     def of_kind(self, kind: int) -> "Contacts":
         """The rows of one kind (e.g. ``contacts.of_kind(PAIR)``)."""
-        rows = self.kind == kind
+        return self.select(self.kind == kind)
+
+    def select(self, rows: np.ndarray) -> "Contacts":
+        """The rows where the boolean mask ``rows`` is true (or the rows of an index array)."""
         return Contacts(self.i[rows], self.j[rows], self.force[rows], self.branch[rows],
                         self.kind[rows])
 

@@ -366,7 +366,7 @@ def friction_slope(phi: ArrayLike, restitution: ArrayLike, phi_f: float | None =
     (its Fig. 5.10).
     """
     phi_arr, chi, e = _sphere_state(phi, restitution, 3, phi_f, phi_c)
-    ratio = 1 + 2 * (1 + e) * phi_arr * chi
+    ratio = pressure_ratio(phi_arr, e, 3, phi_f, phi_c)
     return _out(5 * _eta_star(phi_arr, chi, e) / (16 * np.sqrt(6 * phi_arr * ratio)))
 
 
