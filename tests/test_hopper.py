@@ -677,3 +677,30 @@ def test_hopper_reads_the_run_sections_integrator_and_list_check(dim):
     assert sim.integrator.name == "adams_bashforth2" and sim.neighbors.check == "relative"
     sim.run(50)  # and it steps
     assert sim.step == 50
+
+
+def test_hopper_refuses_run_dt_fraction_and_its_saved_config_loads_again():
+    """``run.dt_fraction`` is not the hopper's time step (``hopper.dt_fraction`` is): a
+    config that sets it is refused with the field and the fix, not silently run at another
+    dt; the run directory's config (``resolved_dict``) leaves it out and loads again with
+    the same time step."""
+    from grainflow.config.build import build_simulation
+    from grainflow.config.schema import ConfigError, resolved_dict
+
+    hopper = {"n": 60, "width": 10.0, "orifice_width": 4.0, "E_sp": 1000.0, "E_w": 1000.0,
+              "lam": math.inf, "dt_fraction": 0.03}
+    base = {"scenario": "hopper2d", "dim": 2, "run": {"steps": 10}, "hopper": hopper}
+    with pytest.raises(ConfigError) as err:
+        load_config({**base, "run": {"steps": 10, "dt_fraction": 0.01}})
+    (line,) = err.value.messages
+    assert line.startswith("run.dt_fraction: not read by scenario 'hopper2d'")
+    assert "set hopper.dt_fraction instead, or run.dt" in line
+    config = load_config(base)
+    saved = resolved_dict(config)
+    assert "dt_fraction" not in saved["run"] and saved["hopper"]["dt_fraction"] == 0.03
+    dt = build_simulation(config, prepare=False).dt
+    assert build_simulation(load_config(saved), prepare=False).dt == dt
+    # the other scenarios still read run.dt_fraction and keep it in their saved config
+    generic = resolved_dict(load_config({"run": {"steps": 1, "dt_fraction": 0.01},
+                                         "box": {"lo": [0, 0, 0], "hi": [1, 1, 1]}}))
+    assert generic["run"]["dt_fraction"] == 0.01

@@ -113,7 +113,8 @@ class RunSection(_Model):
     dt: quantity("time", gt=0) | None = Field(
         None, description="time step; default dt_fraction * contact time")
     dt_fraction: float = Field(0.02, gt=0, le=0.25,
-                               description="dt = dt_fraction * t_c when dt is not given")
+                               description="dt = dt_fraction * t_c when dt is not given "
+                               "(hopper2d/3d refuse it: theirs is hopper.dt_fraction)")
     integrator: Literal["verlet", "adams_bashforth2"] = Field(
         "verlet", description="'verlet': velocity Verlet (LAMMPS nve/sphere); "
         "'adams_bashforth2': AB2 velocities with trapezoidal positions (seed 002)")
@@ -743,7 +744,7 @@ def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
     section_data = data.pop(scenario.section, {}) if scenario.section else None
     if scenario.run_defaults and isinstance(data.get("run", {}), dict):
         data["run"] = {**scenario.run_defaults, **data.get("run", {})}
-    errors = _unused_sections(data, scenario)
+    errors = _unused_sections(data, scenario) + _run_fields_elsewhere(data, scenario)
     context = {"base_dir": base_dir, "dim": data.get("dim", 3) if data.get("dim") in (2, 3) else 3}
     config: RunConfig | None = None
     try:
@@ -918,6 +919,16 @@ def _unused_sections(data: dict[str, Any], scenario: Scenario) -> list[str]:
             for key in data if key in known and key not in allowed]
 
 
+def _run_fields_elsewhere(data: dict[str, Any], scenario: Scenario) -> list[str]:
+    """``[run]`` fields the scenario takes from elsewhere (:attr:`Scenario.run_elsewhere`):
+    refused, so that a value written there is never silently ignored."""
+    run = data.get("run")
+    if not isinstance(run, Mapping):
+        return []
+    return [f"run.{key}: not read by scenario {scenario.name!r}; {where}"
+            for key, where in scenario.run_elsewhere.items() if key in run]
+
+
 def resolved_dict(config: RunConfig) -> dict[str, Any]:
     """The configuration with defaults filled in, as plain data (TOML-writable): only the
     sections its scenario reads, so that the result loads again (a run directory's
@@ -928,6 +939,8 @@ def resolved_dict(config: RunConfig) -> dict[str, Any]:
             if key in allowed or key not in RunConfig.model_fields}
     if config.section is not None and entry.section:
         data[entry.section] = config.section.model_dump(exclude_none=True)
+    for key in entry.run_elsewhere:
+        data["run"].pop(key, None)
     return data
 
 

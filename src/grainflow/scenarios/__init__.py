@@ -52,6 +52,10 @@ class Scenario:
     refused so that nothing a user writes is silently ignored. ``run_defaults``: ``[run]``
     settings the scenario's study uses unless the config sets them (e.g. seed 002's
     Adams-Bashforth integrator), applied before validation so the saved config shows them.
+    ``run_elsewhere``: ``[run]`` fields the builder does not read, each with where the
+    setting comes from instead (e.g. the hopper's time-step fraction is
+    ``hopper.dt_fraction``); a config that sets one is refused with that text, and the
+    saved config leaves them out.
     """
 
     name: str
@@ -61,6 +65,7 @@ class Scenario:
     uses: frozenset[str] = field(default_factory=frozenset)
     description: str = ""
     run_defaults: dict[str, Any] = field(default_factory=dict)
+    run_elsewhere: dict[str, str] = field(default_factory=dict)
 
     def build(self, config: Any) -> "Simulation":
         """Import the builder and build the simulation."""

@@ -695,12 +695,18 @@ def build_hopper3d(config: Any) -> "Simulation":
     return _build(config, 3)
 
 
+#: The hopper's time step is its own section's: dt = hopper.dt_fraction x t_c (pairs and
+#: walls), or run.dt.
+RUN_ELSEWHERE = {"dt_fraction": "the hopper's time step is dt = hopper.dt_fraction x t_c "
+                                f"(default {HopperSection.model_fields['dt_fraction'].default:g}); "
+                                "set hopper.dt_fraction instead, or run.dt"}
+
 register(Scenario(
     "hopper2d", "grainflow.scenarios.hopper:build_hopper2d", section="hopper",
-    model=HopperSection,
+    model=HopperSection, run_elsewhere=RUN_ELSEWHERE,
     description="seed 003: 2D hopper of soft bidisperse disks, continuous flow by reinsertion"))
 register(Scenario(
     "hopper3d", "grainflow.scenarios.hopper:build_hopper3d", section="hopper",
-    model=HopperSection,
+    model=HopperSection, run_elsewhere=RUN_ELSEWHERE,
     description="seed 003: 3D cylindrical hopper with a flat base, continuous flow by "
                 "reinsertion"))
