@@ -704,3 +704,30 @@ def test_hopper_refuses_run_dt_fraction_and_its_saved_config_loads_again():
     generic = resolved_dict(load_config({"run": {"steps": 1, "dt_fraction": 0.01},
                                          "box": {"lo": [0, 0, 0], "hi": [1, 1, 1]}}))
     assert generic["run"]["dt_fraction"] == 0.01
+
+
+def test_a_hopper_config_saved_before_the_refusal_still_loads_and_matches(tmp_path):
+    """Run directories written before the hopper refused ``run.dt_fraction`` carry its
+    default (0.02) in ``[run]``: such a saved config still loads (a run resumes) and its
+    sweep point still counts as the same configuration; a value other than the default
+    written there by hand is refused as in any config."""
+    import tomli_w
+
+    from grainflow.config.schema import ConfigError, resolved_dict
+    from grainflow.sweep.execute import _same_config
+
+    hopper = {"n": 60, "width": 10.0, "orifice_width": 4.0, "E_sp": 1000.0, "E_w": 1000.0,
+              "lam": math.inf}
+    config = {"scenario": "hopper2d", "dim": 2, "run": {"steps": 10}, "hopper": hopper}
+    old = resolved_dict(load_config(config))
+    old["run"]["dt_fraction"] = 0.02  # what resolved_dict wrote before
+    path = tmp_path / "config.toml"
+    path.write_text(tomli_w.dumps(old))
+    assert load_config(path, saved=True).section.dt_fraction == 0.05
+    assert _same_config(old, config)
+    with pytest.raises(ConfigError):
+        load_config(path)  # not as a saved config: refused like a user's
+    old["run"]["dt_fraction"] = 0.01
+    path.write_text(tomli_w.dumps(old))
+    with pytest.raises(ConfigError, match="run.dt_fraction: not read by scenario 'hopper2d'"):
+        load_config(path, saved=True)

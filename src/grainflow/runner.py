@@ -173,7 +173,7 @@ def resume_run(rundir: str | os.PathLike[str], *, threads: Threads | None = None
                           "resuming from its last healthy checkpoint would repeat the "
                           f"failure. Fix the configuration and start again: grainflow run "
                           f"CONFIG -o {rundir} --overwrite")
-    cfg = load_config(rundir / CONFIG)
+    cfg = load_config(rundir / CONFIG, saved=True)
     threads = check_threads(cfg.run.threads if threads is None else threads)
     saved = read_checkpoint(rundir / CHECKPOINT)
     sim = build_simulation(cfg, prepare=False)

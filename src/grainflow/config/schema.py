@@ -719,11 +719,12 @@ class RunConfig(_Model):
 
 
 # ----------------------------------------------------------------------------- loading
-def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
+def load_config(source: str | Path | Mapping[str, Any], *, saved: bool = False) -> RunConfig:
     """Read and validate a run configuration (TOML path or dict).
 
     Relative file names inside a TOML file are resolved against the file's folder (against
-    the working directory for a dict). Raises :class:`ConfigError`.
+    the working directory for a dict). Raises :class:`ConfigError`. ``saved``: ``source``
+    is a run directory's ``config.toml`` (:func:`saved_config_upgraded` is applied first).
 
     What needs the built particles is checked by
     :func:`grainflow.config.build.build_simulation` instead (``run.dt`` against the
@@ -735,6 +736,8 @@ def load_config(source: str | Path | Mapping[str, Any]) -> RunConfig:
         path = Path(source)
         data = _read_toml(path)
         base_dir = path.resolve().parent
+    if saved:
+        data = saved_config_upgraded(data)
 
     name = data.get("scenario", "generic")
     try:
@@ -927,6 +930,25 @@ def _run_fields_elsewhere(data: dict[str, Any], scenario: Scenario) -> list[str]
         return []
     return [f"run.{key}: not read by scenario {scenario.name!r}; {where}"
             for key, where in scenario.run_elsewhere.items() if key in run]
+
+
+def saved_config_upgraded(data: Mapping[str, Any]) -> dict[str, Any]:
+    """A run directory's saved config (``config.toml``) in today's form. Before the hopper
+    scenarios refused ``run.dt_fraction`` (:attr:`Scenario.run_elsewhere`),
+    :func:`resolved_dict` wrote the ``[run]`` default of such a field into every saved
+    config; that default, never read, is dropped so that the run resumes and its sweep
+    point still counts as the same configuration."""
+    data = dict(data)
+    run = data.get("run")
+    try:
+        scenario = get_scenario(str(data.get("scenario", "generic")))
+    except ValueError:
+        return data  # load_config names the unknown scenario
+    if isinstance(run, Mapping):
+        data["run"] = {key: value for key, value in run.items()
+                       if not (key in scenario.run_elsewhere
+                               and value == RunSection.model_fields[key].default)}
+    return data
 
 
 def resolved_dict(config: RunConfig) -> dict[str, Any]:

@@ -258,13 +258,13 @@ def _same_config(written: dict[str, Any], config: dict[str, Any]) -> bool:
     """Whether ``written`` (a run's config.toml) is what ``config`` resolves to."""
     import tomllib
 
-    from grainflow.config.schema import load_config, resolved_dict
+    from grainflow.config.schema import load_config, resolved_dict, saved_config_upgraded
 
     try:
         resolved = tomllib.loads(tomli_w.dumps(resolved_dict(load_config(copy.deepcopy(config)))))
     except Exception:  # noqa: BLE001 - an invalid config: the runner will say why
         return False
-    return resolved == written
+    return resolved == saved_config_upgraded(written)
 
 
 def _move_damaged(rundir: Path) -> Path:
