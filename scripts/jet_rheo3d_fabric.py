@@ -20,33 +20,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from grainflow import interrupt
-from grainflow.analysis.jet.fabric import ring_fabric_3d
+from grainflow.analysis.jet.fabric import pool_fabrics, ring_fabric_3d
 from grainflow.analysis.jet.rheology import layer_fields_3d, pool
 from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs, with_target_spacing
 from grainflow.studies.points import run_sweeps
-
-
-def _pooled(fabrics: list) -> dict[str, np.ndarray]:
-    """The replicas' ring values pooled: each ring's contacts weigh its fabric, force and
-    sliding fraction; Z is the replicas' mean."""
-    weights = np.array([f.contacts for f in fabrics], dtype=float)  # (replicas, rings)
-
-    def mean(values: list[np.ndarray]) -> np.ndarray:
-        v = np.array(values)
-        w = weights.reshape(weights.shape + (1,) * (v.ndim - 2))
-        with np.errstate(invalid="ignore"):
-            return np.nansum(v * w, axis=0) / w.sum(axis=0)
-
-    fabric = mean([f.fabric for f in fabrics])
-    force = mean([f.force_fabric for f in fabrics])
-    return {"Z": np.nanmean([f.coordination for f in fabrics], axis=0),
-            "F_rz": fabric[:, 0, 2], "F_zz": fabric[:, 2, 2],
-            "mu_n": -3.0 * force[:, 0, 2] / np.trace(force, axis1=1, axis2=2),
-            "f_n": mean([f.normal_force for f in fabrics]),
-            "sliding": mean([f.sliding for f in fabrics])}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -71,15 +49,15 @@ def main(argv: list[str] | None = None) -> None:
         layers.setdefault(key, []).append(
             layer_fields_3d(frames, radius, window=REDUCED.rheo3d_window))
     for key in sorted(fabrics):
-        v = _pooled(fabrics[key])
+        fab = pool_fabrics(fabrics[key])
         lay = pool(layers[key]).values
         print(f"phi_tilde {key[0]}, mu_p {key[1]}")
         print("  r/R    phi    mu*      I      Z   F_rz   F_zz   mu*_n   <f_n>  sliding")
-        for k, r in enumerate(fabrics[key][0].r):
+        for k, r in enumerate(fab.r):
             print(f"  {r:.2f}  {lay['phi'][k]:.3f}  {lay['mu'][k]:+.3f}  {lay['I'][k]:.4f}"
-                  f"  {v['Z'][k]:4.2f}  {v['F_rz'][k]:+.3f}  {v['F_zz'][k]:.3f}"
-                  f"  {v['mu_n'][k]:+6.3f}  {v['f_n'][k]:7.4f}  "
-                  + ("      -" if key[1] == 0 else f"{v['sliding'][k]:7.3f}"))
+                  f"  {fab.coordination[k]:4.2f}  {fab.fabric[k, 0, 2]:+.3f}"
+                  f"  {fab.fabric[k, 2, 2]:.3f}  {fab.normal_force_mu[k]:+6.3f}"
+                  f"  {fab.normal_force[k]:7.4f}  {fab.sliding[k]:7.3f}")
 
 
 if __name__ == "__main__":

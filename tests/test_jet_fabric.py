@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainflow.analysis.jet.fabric import ring_fabric_3d
+from grainflow.analysis.jet.fabric import pool_fabrics, ring_fabric_3d
 from grainflow.frame import PAIR, WALL, Box, Contacts, Frame
 
 R_TAR = 10.0  # five rings of width 2
@@ -76,3 +76,25 @@ def test_contacts_with_the_target_and_outside_the_layer_are_left_out_and_frames_
     assert np.isnan(fab.sliding).all()
     with pytest.raises(ValueError, match="no frame in the window"):
         ring_fabric_3d([f], R_TAR, 0.0, window=(3.0, 4.0))
+
+
+def test_pooled_replicas_are_their_frames_counted_together():
+    """pool_fabrics of two runs' fabrics equals the fabric of both runs' frames at once:
+    Z, both fabrics, the sliding fraction and the mean force."""
+    rng = np.random.default_rng(4)
+
+    def random_frame(time):
+        pos = np.column_stack([rng.uniform(-9, 9, 40), rng.uniform(-9, 9, 40),
+                               rng.uniform(0.2, 4.8, 40)])
+        pairs = [(a, a + 1) for a in range(0, 39, 2)] + [(a, a + 3) for a in range(0, 30, 5)]
+        forces = rng.normal(size=(len(pairs), 3))
+        return frame(pos, pairs, forces, time=time)
+
+    first = [random_frame(0.0), random_frame(1.0)]
+    second = [random_frame(0.5), random_frame(2.0), random_frame(3.0)]
+    pooled = pool_fabrics([ring_fabric_3d(first, R_TAR, 0.3), ring_fabric_3d(second, R_TAR, 0.3)])
+    together = ring_fabric_3d(first + second, R_TAR, 0.3)
+    for name in ("coordination", "fabric", "force_fabric", "sliding", "normal_force"):
+        np.testing.assert_allclose(getattr(pooled, name), getattr(together, name), rtol=1e-12,
+                                   err_msg=name)
+    assert pooled.frames == 5 and pooled.contacts.tolist() == together.contacts.tolist()

@@ -122,6 +122,29 @@ def test_per_run_analyses_on_a_real_run(small_jet_run: Path) -> None:
     assert abs(aniso["v2"]) < 0.5 and aniso["v2_err"] > 0
 
 
+def test_the_contact_fabric_of_a_real_run_and_its_report_table(small_jet_run: Path) -> None:
+    """On a real run's contact listing: each ring's fabric has unit trace, the sliding
+    fraction lies in [0, 1] (the scenario's grains are frictional), and the report table has one
+    row per ring carrying the layer's mu*."""
+    from grainflow.analysis.jet.fabric import ring_fabric_3d
+    from grainflow.analysis.jet.rheology import layer_fields_3d
+
+    frames, config = jet_study._run_frames(small_jet_run)
+    radius = 0.5 * config["jet"]["target_diameter"]
+    mu = config["jet"]["mu_p"]
+    fab = ring_fabric_3d(frames, radius, mu)
+    touched = fab.contacts > 0
+    assert touched.sum() >= 2
+    np.testing.assert_allclose(np.trace(fab.fabric[touched], axis1=1, axis2=2), 1.0)
+    assert np.all((fab.sliding[touched] >= 0) & (fab.sliding[touched] <= 1))
+    assert np.all(fab.coordination[touched] > 0)
+    layer = layer_fields_3d(frames, radius)
+    lines = jet_study._fabric_lines("frictional", {0.5: fab}, {0.5: layer})
+    rows = [line for line in lines if line.startswith("| 0.5 |")]
+    assert len(rows) == 5
+    assert rows[0].split("|")[6].strip() == f"{layer.values['mu'][0]:+.3f}"
+
+
 def test_with_target_spacing_changes_only_the_base_jets_target():
     from grainflow.studies.jet_study import REDUCED, sweep_specs, with_target_spacing
 

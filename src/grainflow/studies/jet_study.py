@@ -253,13 +253,17 @@ def _mean_by(keys: list[float], values: list[float]
 
 
 def _rheology_3d(points: SweepPoints, window: tuple[float, float]
-                 ) -> tuple[dict[tuple[float, float], Any], dict[float, dict[str, tuple]]]:
+                 ) -> tuple[dict[tuple[float, float], Any], dict[float, dict[str, tuple]],
+                            dict[tuple[float, float], Any]]:
     """The 3D rheology sweep, each run's frames read once: pooled layer fields per
-    (phi_tilde, mu_p), and per mu_p the flatness per component at phi_tilde = 0.9
-    (Table 5.1) as (replica mean, standard error)."""
+    (phi_tilde, mu_p), per mu_p the flatness per component at phi_tilde = 0.9
+    (Table 5.1) as (replica mean, standard error), and the pooled contact fabric per
+    (phi_tilde, mu_p) (:mod:`grainflow.analysis.jet.fabric`)."""
+    from grainflow.analysis.jet.fabric import pool_fabrics, ring_fabric_3d
     from grainflow.analysis.jet.rheology import layer_fields_3d, layer_flatness, pool
 
     groups: dict[tuple[float, float], list[Any]] = {}
+    fabrics: dict[tuple[float, float], list[Any]] = {}
     flat: dict[float, dict[str, list[float]]] = {}
     for p, rundir in zip(points.params, points.rundirs):
         frames, config = _run_frames(rundir)
@@ -267,13 +271,16 @@ def _rheology_3d(points: SweepPoints, window: tuple[float, float]
         key = (float(p["jet.phi_tilde"]), float(p["jet.mu_p"]))
         groups.setdefault(key, []).append(layer_fields_3d(frames, radius, window=window,
                                                           blocks=4))
+        fabrics.setdefault(key, []).append(ring_fabric_3d(frames, radius, key[1],
+                                                          window=window))
         if key[0] == 0.9:
             for name, v in layer_flatness(frames, radius, dim=3, window=window).items():
                 flat.setdefault(key[1], {}).setdefault(name, []).append(v)
     flatness = {mu: {name: (float(np.mean(v)), float(np.std(v, ddof=1) / math.sqrt(len(v)))
                             if len(v) > 1 else float("nan")) for name, v in values.items()}
                 for mu, values in flat.items()}
-    return {key: pool(layers) for key, layers in sorted(groups.items())}, flatness
+    return ({key: pool(layers) for key, layers in sorted(groups.items())}, flatness,
+            {key: pool_fabrics(runs) for key, runs in sorted(fabrics.items())})
 
 
 def _viscosity_lines(label: str, restitution: float, layers: dict[float, Any]) -> list[str]:
@@ -293,6 +300,26 @@ def _viscosity_lines(label: str, restitution: float, layers: dict[float, Any]) -
                   f"| {kin:.2f} |"
                   for r, phi, D, ratio, slope, kin in zip(c.r, c.phi, c.D, c.ratio, c.slope,
                                                           c.slope_kin)]
+    return lines
+
+
+def _fabric_lines(label: str, fabrics: dict[float, Any], layers: dict[float, Any]
+                  ) -> list[str]:
+    """The contacts in the 3D layer ring by ring (:mod:`grainflow.analysis.jet.fabric`):
+    coordination, the normals' F_rz, the normal forces' mu*_n against the layer's mu*, and
+    the sliding fraction, as a report table."""
+    lines = ["", f"3D ({label}) grain-grain contacts in the layer: coordination Z, the rz "
+             "component of the contact normals' fabric <n n>, the normal forces' share of "
+             "the friction coefficient mu*_n = -3 F_f,rz / tr F_f (F_f: the fabric weighted "
+             "by f_n |b|) beside the layer's mu*, and the fraction of contacts at the Coulomb "
+             "cap (docs/jets.md):", "",
+             "| φ̃0 | r/R_tar | Z | F_rz | mu*_n | mu* | sliding |", "|---|---|---|---|---|---|---|"]
+    for phi_tilde, fab in sorted(fabrics.items()):
+        mu = layers[phi_tilde].values["mu"]
+        lines += [f"| {phi_tilde:g} | {r:.1f} | {z:.2f} | {frz:+.3f} | {mn:+.3f} | {m:+.3f} | "
+                  + ("-" if np.isnan(sl) else f"{sl:.3f}") + " |"
+                  for r, z, frz, mn, m, sl in zip(fab.r, fab.coordination, fab.fabric[:, 0, 2],
+                                                  fab.normal_force_mu, mu, fab.sliding)]
     return lines
 
 
@@ -446,7 +473,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
 
     # Chapter 5: 3D rheology in the layer 0 < z < 5 d
     r3 = points["rheo3d"]
-    layers3, flatness3 = _rheology_3d(r3, plan.rheo3d_window) if r3.rundirs else ({}, {})
+    layers3, flatness3, fabrics3 = (_rheology_3d(r3, plan.rheo3d_window) if r3.rundirs
+                                    else ({}, {}, {}))
     checks = []
     for mu_p, label in ((0.2, "frictional"), (0.0, "frictionless")):
         mine = [lay for (phi, mu), lay in layers3.items() if mu == mu_p]
@@ -469,6 +497,9 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
             checks.append((label, [kinetic_theory_check(lay, e, 3) for lay in mine]))
             lines += _viscosity_lines(label, e, {phi: lay for (phi, mu), lay in layers3.items()
                                                  if mu == mu_p})
+            lines += _fabric_lines(label, {phi: f for (phi, mu), f in fabrics3.items()
+                                           if mu == mu_p},
+                                   {phi: lay for (phi, mu), lay in layers3.items() if mu == mu_p})
         if dense is not None:
             plot_stress_profiles(dense, out / f"stress_3d_{label}.png")
             lines.append(f"![stress 3D {label}](stress_3d_{label}.png)")

@@ -30,7 +30,7 @@ import numpy as np
 from grainflow.analysis.jet.rheology import GRAIN_TYPES
 from grainflow.frame import PAIR, Frame
 
-__all__ = ["RingFabric", "ring_fabric_3d"]
+__all__ = ["RingFabric", "pool_fabrics", "ring_fabric_3d"]
 
 #: Relative tolerance of "at the Coulomb cap".
 SLIDING_TOLERANCE = 1e-3
@@ -41,7 +41,8 @@ class RingFabric:
     """Per ring (centre ``r`` in units of R_tar): ``coordination`` Z, ``fabric`` and
     ``force_fabric`` (n_r, 3, 3) in (r, theta, z) components, ``sliding`` (the fraction of
     the ring's contacts at the Coulomb cap; nan without friction), ``normal_force`` (mean
-    f_n), ``contacts`` (contacts counted over all frames) and ``frames``."""
+    f_n); and what they were taken over: ``contacts`` and ``grains`` counted over all
+    frames, ``force_weight`` (sum of f_n |b|) and ``frames``."""
 
     r: np.ndarray
     coordination: np.ndarray
@@ -50,6 +51,8 @@ class RingFabric:
     sliding: np.ndarray
     normal_force: np.ndarray
     contacts: np.ndarray
+    grains: np.ndarray
+    force_weight: np.ndarray
     frames: int
 
     @property
@@ -144,4 +147,36 @@ def ring_fabric_3d(frames: Iterable[Frame], target_radius: float, mu: float, *,
             r=(np.arange(n_r) + 0.5) / n_r, coordination=2.0 * count / grains_in,
             fabric=fabric / count[:, None, None], force_fabric=weighted / weight[:, None, None],
             sliding=at_cap / count if mu > 0 else np.full(n_r, np.nan),
-            normal_force=force_sum / count, contacts=count.astype(np.int64), frames=used)
+            normal_force=force_sum / count, contacts=count.astype(np.int64),
+            grains=grains_in.astype(np.int64), force_weight=weight, frames=used)
+
+
+def _weighted(values: Sequence[np.ndarray], weights: Sequence[np.ndarray]) -> np.ndarray:
+    """sum_k w_k v_k / sum_k w_k per ring (rings where a run has no weight skipped)."""
+    v = np.array(values, dtype=float)
+    w = np.array(weights, dtype=float).reshape((len(weights), -1) + (1,) * (v.ndim - 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sum(np.where(w > 0, v * w, 0.0), axis=0) / w.sum(axis=0)
+
+
+def pool_fabrics(fabrics: Sequence[RingFabric]) -> RingFabric:
+    """Several runs' :class:`RingFabric` (replicas) as one, as if their frames had been
+    counted together: Z from the summed contacts and grains, the fabric, sliding fraction
+    and mean force weighted by the contacts, the force fabric by the force weights."""
+    if not fabrics:
+        raise ValueError("pool_fabrics: no fabric given")
+    contacts = [f.contacts for f in fabrics]
+    count = np.sum(contacts, axis=0)
+    grains = np.sum([f.grains for f in fabrics], axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coordination = 2.0 * count / grains
+    return RingFabric(
+        r=fabrics[0].r, coordination=coordination,
+        fabric=_weighted([f.fabric for f in fabrics], contacts),
+        force_fabric=_weighted([f.force_fabric for f in fabrics],
+                               [f.force_weight for f in fabrics]),
+        sliding=_weighted([f.sliding for f in fabrics], contacts),
+        normal_force=_weighted([f.normal_force for f in fabrics], contacts),
+        contacts=count, grains=grains,
+        force_weight=np.sum([f.force_weight for f in fabrics], axis=0),
+        frames=sum(f.frames for f in fabrics))
