@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from grainflow.engine.list_blocks import BLOCK_CUTS, index_blocks
 from grainflow.engine.neighbor_list import ListGeometry, NeighborList
 from grainflow.frame import Box
 from grainflow.state import ParticleState
@@ -246,3 +247,60 @@ def test_the_relative_check_is_bitwise_on_python_steps_and_across_a_checkpoint(t
         for u, v in zip(_by_id(compiled), _by_id(sim)):
             assert np.array_equal(u, v)
         assert sim.rebuilds == compiled.rebuilds
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_blocks_are_the_cubes_of_the_positions_and_their_neighbours(seed):
+    """``index_blocks`` against its definition, on random boxes (2D and 3D, open and
+    periodic axes, particles also outside the box, empty sets): each block holds the
+    particles of one cube of side G (wrapped on periodic axes), ascending, blocks in the
+    order of their linear key; its pairs are the occupied blocks v >= u whose cube indices
+    differ by at most one along each axis (cyclically on a periodic one), once each."""
+    rng = np.random.default_rng(seed)
+    dim = 2 + seed % 2
+    n = 0 if seed == 5 else int(rng.integers(1, 250))
+    length = np.ones(3)
+    length[:dim] = rng.uniform(2.0, 15.0, dim)
+    lo = np.zeros(3)
+    lo[:dim] = rng.uniform(-3.0, 3.0, dim)
+    periodic = np.zeros(3, dtype=bool)
+    periodic[:dim] = rng.random(dim) < 0.5
+    x = np.zeros((n, 3))
+    x[:, :dim] = lo[:dim] + rng.uniform(-0.3, 1.3, (n, dim)) * length[:dim]
+    cut, skin = float(rng.uniform(0.2, 1.5)), 0.05
+    blocks = index_blocks(x, dim, lo, length, periodic, cut, skin)
+
+    side = BLOCK_CUTS * cut
+    size = np.full(3, side)
+    nblock = np.ones(3, dtype=np.int64)
+    for a in range(dim):
+        if periodic[a]:
+            nblock[a] = max(1, int(length[a] // side))
+            size[a] = length[a] / nblock[a]
+    cube = np.zeros((n, 3), dtype=np.int64)
+    cube[:, :dim] = np.floor((x[:, :dim] - lo[:dim]) / size[:dim]).astype(np.int64)
+    cube[:, periodic] %= nblock[periodic]
+    groups: dict[tuple, list[int]] = {}
+    for i in range(n):
+        groups.setdefault(tuple(cube[i]), []).append(i)
+    cmin = cube.min(axis=0) if n else np.zeros(3, dtype=np.int64)
+    cmin[periodic] = 0
+    extent = (cube.max(axis=0) - cmin + 1) if n else np.ones(3, dtype=np.int64)
+    extent[periodic] = nblock[periodic]
+    order = sorted(groups, key=lambda c: ((c[0] - cmin[0]) * extent[1] + c[1] - cmin[1])
+                   * extent[2] + c[2] - cmin[2])
+    members = [groups[c] for c in order]
+    assert blocks.block_ptr.tolist() == np.cumsum([0] + [len(m) for m in members]).tolist()
+    assert blocks.member.tolist() == [i for m in members for i in m]
+
+    def near(a, b):
+        d = np.abs(np.subtract(a, b))
+        d = np.where(periodic, np.minimum(d, nblock - d), d)
+        return bool(np.all(d <= 1))
+
+    expected = [[v for v in range(u, len(order)) if near(order[u], order[v])]
+                for u in range(len(order))]
+    got = [blocks.pair_block[blocks.pair_ptr[u]:blocks.pair_ptr[u + 1]].tolist()
+           for u in range(len(order))]
+    assert got == expected
+    assert blocks.spread_sq == pytest.approx((side - (cut - skin)) ** 2)

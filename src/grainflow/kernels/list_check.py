@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
-from grainflow.kernels.neighbors import max_displacement_sq
+from grainflow.kernels.neighbors import counting_sort, max_displacement_sq
 from grainflow.kernels.specialize import serial, specialize
 
 
@@ -113,6 +113,118 @@ def neighbour_blocks_hold(lo, hi, pair_ptr, pair_block, skin_sq, worst):
         if worst[u] >= skin_sq:
             return False
     return True
+
+
+@njit(cache=True)
+def block_index(x_ref, dim, lo, length, periodic, side):
+    """The relative check's blocks (:mod:`grainflow.engine.list_blocks`) of the positions
+    ``x_ref`` (N, 3): cubes of side ``side`` from ``lo`` (on a periodic axis the box is
+    split into ``floor(L / side)`` equal blocks, at least one, and block indices wrap).
+
+    Returns ``member``, ``block_ptr`` (each occupied block's particles, ascending, blocks in
+    the order of their linear key) and ``pair_ptr``, ``pair_block`` (each block's
+    neighbouring occupied blocks ``v >= u`` in its 3^dim stencil, itself included,
+    ascending, each pair once). Compiled: numpy's unique, searchsorted and lexsort took
+    23 ms for the stream's 28,800 grains in 5,000 blocks, at every list build."""
+    n = x_ref.shape[0]
+    size = np.full(3, side)
+    nblock = np.ones(3, dtype=np.int64)
+    for a in range(dim):
+        if periodic[a]:
+            nblock[a] = max(1, np.int64(length[a] // side))
+            size[a] = length[a] / nblock[a]
+    coords = np.zeros((n, 3), dtype=np.int64)
+    cmin = np.zeros(3, dtype=np.int64)
+    cmax = np.zeros(3, dtype=np.int64)
+    for a in range(dim):
+        for i in range(n):
+            coords[i, a] = np.int64(np.floor((x_ref[i, a] - lo[a]) / size[a]))
+        if n:
+            cmin[a] = coords[:, a].min()
+            cmax[a] = coords[:, a].max()
+        if periodic[a]:
+            for i in range(n):
+                coords[i, a] %= nblock[a]
+            cmin[a] = 0
+            cmax[a] = nblock[a] - 1
+    extent = cmax - cmin + 1
+    keys = ((coords[:, 0] - cmin[0]) * extent[1] + (coords[:, 1] - cmin[1])) * extent[2] \
+        + (coords[:, 2] - cmin[2])
+    # a block's neighbours are looked up in a dense table of every key of the occupied
+    # box when it is small (a packing), else by bisection of the sorted keys (a dilute
+    # stream mostly of empty blocks); the particles are sorted by key stably (ascending
+    # indices in a block), by counting in the first case
+    n_keys = extent[0] * extent[1] * extent[2]
+    dense = n_keys <= 8 * max(n, 1)
+    if dense:
+        member = counting_sort(keys, n_keys)[0]
+    else:
+        member = np.argsort(keys, kind="mergesort")
+    starts = np.empty(n + 1, dtype=np.int64)
+    nb = 0
+    for s in range(n):
+        if s == 0 or keys[member[s]] != keys[member[s - 1]]:
+            starts[nb] = s
+            nb += 1
+    starts[nb] = n
+    block_ptr = starts[:nb + 1].copy()
+    block_keys = np.empty(nb, dtype=np.int64)
+    for b in range(nb):
+        block_keys[b] = keys[member[block_ptr[b]]]
+    block_at = np.full(n_keys if dense else 0, -1, dtype=np.int64)
+    if dense:
+        for b in range(nb):
+            block_at[block_keys[b]] = b
+    stencil = 3 ** dim
+    found = np.empty(nb * stencil, dtype=np.int64)
+    counts = np.zeros(nb + 1, dtype=np.int64)
+    c = np.empty(3, dtype=np.int64)
+    for u in range(nb):
+        first = member[block_ptr[u]]
+        m = 0
+        for q in range(stencil):
+            inside = True
+            rest = q
+            for a in range(3):
+                c[a] = coords[first, a]
+                if a < dim:
+                    c[a] += rest % 3 - 1
+                    rest //= 3
+                    if periodic[a]:
+                        c[a] %= nblock[a]
+                    elif c[a] < cmin[a] or c[a] > cmax[a]:
+                        inside = False
+            if not inside:
+                continue
+            key = ((c[0] - cmin[0]) * extent[1] + (c[1] - cmin[1])) * extent[2] + (c[2] - cmin[2])
+            if dense:
+                v = block_at[key]
+            else:
+                v = np.searchsorted(block_keys, key)
+                if v >= nb or block_keys[v] != key:
+                    v = -1
+            if v >= u:
+                found[u * stencil + m] = v
+                m += 1
+        row = found[u * stencil:u * stencil + m]
+        for t in range(1, m):  # insertion sort: at most 3^dim entries
+            v = row[t]
+            w = t - 1
+            while w >= 0 and row[w] > v:
+                row[w + 1] = row[w]
+                w -= 1
+            row[w + 1] = v
+        k = 0
+        for t in range(m):  # a short periodic axis can name one block twice
+            if t == 0 or row[t] != row[k - 1]:
+                row[k] = row[t]
+                k += 1
+        counts[u + 1] = k
+    pair_ptr = np.cumsum(counts)
+    pair_block = np.empty(pair_ptr[nb], dtype=np.int64)
+    for u in range(nb):
+        pair_block[pair_ptr[u]:pair_ptr[u + 1]] = found[u * stencil:u * stencil + counts[u + 1]]
+    return member, block_ptr, pair_ptr, pair_block
 
 
 def _stale_absolute(args):
