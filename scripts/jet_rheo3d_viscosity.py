@@ -24,9 +24,21 @@ its normal part (what the tangential forces carry).
 ``--target-spacing 0.5`` runs the same on a smoother target (wall particles half a diameter
 apart; the thesis gives no lattice); use another OUT_DIR.
 
+``--smooth-restitution E`` runs frictionless grains only, at normal restitution E (the
+thesis's kinetic theory stands for its frictional grains by smooth ones at e_bar = 0.616, eq.
+2.55): whether e_bar alone gives the frictional layer's a; use another OUT_DIR.
+
+``--fabric`` prints instead what friction changes in the layer's contacts: per ring of every
+(phi_tilde, mu_p), pooled over the replicas (:mod:`grainflow.analysis.jet.fabric`), the
+layer's phi, mu* and I, the coordination number Z, the fabric's F_rz and F_zz of the
+contact normals, mu*_n = -3 F_f,rz / tr F_f of the normal-force-weighted fabric (the
+-sigma_rz / P the contacts' normal forces carry), the mean normal force and the fraction of
+contacts sliding at the Coulomb cap.
+
 Usage::
 
     python scripts/jet_rheo3d_viscosity.py OUT_DIR [--target-spacing 0.5]
+        [--smooth-restitution 0.616] [--fabric]
 """
 
 from __future__ import annotations
@@ -39,12 +51,14 @@ import numpy as np
 
 from grainflow import interrupt
 from grainflow.analysis import kinetic_theory as kt
+from grainflow.analysis.jet.fabric import pool_fabrics, ring_fabric_3d
 from grainflow.analysis.jet.rheology import (fit_friction_3d, layer_fields_3d, pool,
                                               viscosity_check)
 from grainflow.frame import Frame
-from grainflow.scenarios.jet import TARGET_TYPE
+from grainflow.scenarios.jet import TARGET_TYPE, JetSection
 from grainflow.studies.jet_study import REDUCED, _run_frames, sweep_specs, with_target_spacing
 from grainflow.studies.points import run_sweeps
+from grainflow.sweep import parse_sweep
 
 
 def without_target_contacts(frame: Frame) -> Frame:
@@ -66,8 +80,19 @@ def normal_parts_only(frame: Frame) -> Frame:
     return dataclasses.replace(frame, contacts=dataclasses.replace(c, force=normal))
 
 
-def print_rings(key: tuple[float, float], layer) -> None:
-    e = 0.75 if key[1] == 0.0 else float(kt.effective_restitution(0.75, key[1]))
+def smooth_at(spec, restitution: float | None):
+    """``spec`` with frictionless grains only, at normal restitution ``restitution``
+    (``spec`` itself for None)."""
+    if restitution is None:
+        return spec
+    raw = spec.model_dump()
+    raw["base"]["jet"]["restitution"] = restitution
+    raw["overrides"]["jet.mu_p"] = [0.0]
+    return parse_sweep(raw)
+
+
+def print_rings(key: tuple[float, float], layer, restitution: float) -> None:
+    e = restitution if key[1] == 0.0 else float(kt.effective_restitution(restitution, key[1]))
     c = viscosity_check(layer, e)
     v = layer.values
     print(f"phi_tilde {key[0]}, mu_p {key[1]} (e = {e:.3f})")
@@ -78,16 +103,50 @@ def print_rings(key: tuple[float, float], layer) -> None:
               f"  {c.ratio[k]:5.2f}  {c.slope[k]:5.2f}  {c.slope_kin[k]:4.2f}")
 
 
+def print_fabric(points) -> None:
+    """The contacts in the layer, ring by ring, per (phi_tilde, mu_p) (``--fabric``)."""
+    fabrics: dict[tuple[float, float], list] = {}
+    layers: dict[tuple[float, float], list] = {}
+    window = REDUCED.rheo3d_window
+    for p, rundir in zip(points.params, points.rundirs):
+        frames, config = _run_frames(rundir)
+        radius = 0.5 * config["jet"]["target_diameter"]
+        key = (float(p["jet.phi_tilde"]), float(p["jet.mu_p"]))
+        fabrics.setdefault(key, []).append(ring_fabric_3d(frames, radius, key[1], window=window))
+        layers.setdefault(key, []).append(layer_fields_3d(frames, radius, window=window))
+    print(f"window t = {window[0]:g}-{window[1]:g}")
+    for key in sorted(fabrics):
+        fab = pool_fabrics(fabrics[key])
+        lay = pool(layers[key]).values
+        print(f"phi_tilde {key[0]}, mu_p {key[1]}")
+        print("  r/R    phi    mu*      I      Z   F_rz   F_zz   mu*_n   <f_n>  sliding")
+        for k, r in enumerate(fab.r):
+            print(f"  {r:.2f}  {lay['phi'][k]:.3f}  {lay['mu'][k]:+.3f}  {lay['I'][k]:.4f}"
+                  f"  {fab.coordination[k]:4.2f}  {fab.fabric[k, 0, 2]:+.3f}"
+                  f"  {fab.fabric[k, 2, 2]:.3f}  {fab.normal_force_mu[k]:+6.3f}"
+                  f"  {fab.normal_force[k]:7.4f}  {fab.sliding[k]:7.3f}")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", type=Path)
     parser.add_argument("--target-spacing", type=float, default=None,
                         help="spacing of the target's wall particles in d (default: the "
                         "scenario's, 1: touching)")
+    parser.add_argument("--smooth-restitution", type=float, default=None,
+                        help="frictionless grains only, at this normal restitution")
+    parser.add_argument("--fabric", action="store_true",
+                        help="print the contacts in the layer instead (module docstring)")
     args = parser.parse_args(argv)
-    spec = with_target_spacing(sweep_specs(REDUCED)["rheo3d"], args.target_spacing)
+    spec = smooth_at(with_target_spacing(sweep_specs(REDUCED)["rheo3d"], args.target_spacing),
+                     args.smooth_restitution)
+    restitution = spec.base["jet"].get("restitution",
+                                       JetSection.model_fields["restitution"].default)
     points = run_sweeps({"rheo3d": spec}, args.out, progress="plain")["rheo3d"]
     print(f"{len(points.rundirs)} runs, {points.cpu:.0f} CPU-s")
+    if args.fabric:
+        print_fabric(points)
+        return
     groups: dict[str, dict[tuple[float, float], list]] = {"with": {}, "without": {},
                                                          "normal parts only, with": {}}
     for p, rundir in zip(points.params, points.rundirs):
@@ -101,7 +160,7 @@ def main(argv: list[str] | None = None) -> None:
                 layer_fields_3d(fr, radius, window=REDUCED.rheo3d_window, blocks=4))
     layers = {name: {k: pool(v) for k, v in sorted(g.items())} for name, g in groups.items()}
     for key, layer in layers["with"].items():
-        print_rings(key, layer)
+        print_rings(key, layer, restitution)
         if key[0] == 0.9:
             main_fields = layer.sources[0]
             kinetic = main_fields.kinetic_stress.reshape(-1, 3, 3)[:, 0, 2]

@@ -32,6 +32,18 @@ def minimum_image(d: float, length: float, periodic: bool) -> float:
     return d
 
 
+@njit(cache=True, inline="always")
+def _separation(d0: float, d1: float, d2: float, wrap: bool, box_len, periodic
+                ) -> tuple[float, float, float]:
+    """A separation's components, folded by :func:`minimum_image` when ``wrap`` (some axis
+    is periodic); unchanged otherwise."""
+    if wrap:
+        return (minimum_image(d0, box_len[0], periodic[0]),
+                minimum_image(d1, box_len[1], periodic[1]),
+                minimum_image(d2, box_len[2], periodic[2]))
+    return d0, d1, d2
+
+
 @njit(cache=True, parallel=True)
 def wrap_periodic(x, image, lo, length, periodic):
     """Fold positions on periodic axes into ``[lo, lo + L)``: ``x -= s L`` and
@@ -249,13 +261,8 @@ def _scan(i, x, radius, x_sorted, r_sorted, frozen, body, cell_of, table, cell_s
                 continue
             if bi >= 0 and body[j] == bi:
                 continue
-            d0 = xi0 - x_sorted[s, 0]
-            d1 = xi1 - x_sorted[s, 1]
-            d2 = xi2 - x_sorted[s, 2]
-            if wrap:
-                d0 = minimum_image(d0, box_len[0], periodic[0])
-                d1 = minimum_image(d1, box_len[1], periodic[1])
-                d2 = minimum_image(d2, box_len[2], periodic[2])
+            d0, d1, d2 = _separation(xi0 - x_sorted[s, 0], xi1 - x_sorted[s, 1],
+                                     xi2 - x_sorted[s, 2], wrap, box_len, periodic)
             cut = ri + r_sorted[s]
             if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
                 if count < capacity:
@@ -265,7 +272,8 @@ def _scan(i, x, radius, x_sorted, r_sorted, frozen, body, cell_of, table, cell_s
 
 
 @njit(cache=True)
-def _insertion_sort(a, lo, hi):
+def insertion_sort(a, lo, hi):
+    """Sort ``a[lo:hi]`` in place (short, nearly sorted runs: list rows, stencils)."""
     for p in range(lo + 1, hi):
         v = a[p]
         q = p - 1
@@ -300,7 +308,7 @@ def _compact_rows(scratch, capacity, row_ptr, nbr):
         m = row_ptr[i + 1] - start
         for q in range(m):
             nbr[start + q] = scratch[base + q]
-        _insertion_sort(nbr, start, start + m)
+        insertion_sort(nbr, start, start + m)
 
 
 def build_half_list(x, radius, frozen, body, cell_of, table, cell_start, order, box_len,
@@ -442,13 +450,8 @@ def _scan_grid(i, x, radius, x_sorted, r_sorted, frozen, body, key, first, end, 
             j = s if in_cell_order else order[s]
             if not in_cell_order and j <= i:
                 continue
-            d0 = xi0 - x_sorted[s, 0]
-            d1 = xi1 - x_sorted[s, 1]
-            d2 = xi2 - x_sorted[s, 2]
-            if wrap:
-                d0 = minimum_image(d0, box_len[0], periodic[0])
-                d1 = minimum_image(d1, box_len[1], periodic[1])
-                d2 = minimum_image(d2, box_len[2], periodic[2])
+            d0, d1, d2 = _separation(xi0 - x_sorted[s, 0], xi1 - x_sorted[s, 1],
+                                     xi2 - x_sorted[s, 2], wrap, box_len, periodic)
             cut = ri + r_sorted[s]
             if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
                 if fi and frozen[j]:
@@ -481,7 +484,7 @@ def _fill_chunks_grid(x, radius, x_sorted, r_sorted, frozen, body, keys, first, 
                            in_cell_order)
             counts[i + 1] = c
             if used + c <= width:
-                _insertion_sort(out, used, used + c)
+                insertion_sort(out, used, used + c)
             used += c
         need[t] = used
     return need
