@@ -49,14 +49,14 @@ from grainflow.frame import CONTACT_KINDS, Frame
 from grainflow.kernels import cg_deposit
 
 __all__ = ["FIELDS", "CGFields", "coarse_grain", "combine", "frame_sums", "load_fields",
-           "strain_rate"]
+           "radial_basis", "rows_of", "strain_rate"]
 
 
 def _grain_volumes(radius: np.ndarray, dim: int) -> np.ndarray:
     return pi * radius**2 if dim == 2 else 4.0 / 3.0 * pi * radius**3
 
 
-def _radial_basis(local: np.ndarray, dim: int) -> np.ndarray:
+def radial_basis(local: np.ndarray, dim: int) -> np.ndarray:
     """(N, dim, dim): rows e_r, e_theta(, e_z) at local points (e_r along x on the axis)."""
     rho = np.hypot(local[:, 0], local[:, 1])
     safe = np.where(rho > 0, rho, 1.0)
@@ -73,7 +73,7 @@ def _radial_basis(local: np.ndarray, dim: int) -> np.ndarray:
 def _local_axes(coords: Coordinates, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     """Positions in the system's local frame, and the radial basis there (None: Cartesian)."""
     local = coords.to_local(x)
-    return local, None if isinstance(coords, Cartesian) else _radial_basis(local, coords.dim)
+    return local, None if isinstance(coords, Cartesian) else radial_basis(local, coords.dim)
 
 
 def _vectors_in_frame(coords: Coordinates, v: np.ndarray) -> np.ndarray:
@@ -104,18 +104,26 @@ def _particle_values(frame: Frame, coords: Coordinates) -> tuple[np.ndarray, np.
     return local, values
 
 
+def rows_of(frame: Frame, ids: np.ndarray) -> np.ndarray:
+    """The frame's rows of the particles ``ids`` (e.g. a contact listing's ``i``);
+    ValueError naming ids the frame does not hold."""
+    ids = np.asarray(ids)
+    order = np.argsort(frame.id, kind="stable")
+    slot = np.searchsorted(frame.id, ids, sorter=order)
+    slot = np.clip(slot, 0, frame.n - 1)
+    rows = order[slot]
+    if frame.n == 0 or np.any(frame.id[rows] != ids):
+        missing = np.setdiff1d(ids, frame.id)[:5]
+        raise ValueError(f"frame at step {frame.step}: contacts name particle ids "
+                         f"{missing.tolist()} that the frame does not hold")
+    return rows
+
+
 def _contact_segments(frame: Frame, coords: Coordinates):
     """Per contact kind present: (start, end) of its branch lines in the local frame (partner
     point -> grain centre) and F (x) b (M, D, D) in the local frame's Cartesian axes."""
     c = frame.contacts
-    order = np.argsort(frame.id, kind="stable")
-    slot = np.searchsorted(frame.id, c.i, sorter=order)
-    slot = np.clip(slot, 0, frame.n - 1)
-    rows = order[slot]
-    if frame.n == 0 or np.any(frame.id[rows] != c.i):
-        missing = np.setdiff1d(c.i, frame.id)[:5]
-        raise ValueError(f"frame at step {frame.step}: contacts name particle ids "
-                         f"{missing.tolist()} that the frame does not hold")
+    rows = rows_of(frame, c.i)
     centre = np.asarray(frame.position, dtype=float)[rows]
     branch = np.asarray(c.branch, dtype=float)
     force = np.asarray(c.force, dtype=float)

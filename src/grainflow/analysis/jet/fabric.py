@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grainflow.analysis.cg.fields import radial_basis, rows_of
 from grainflow.analysis.jet.rheology import GRAIN_TYPES
 from grainflow.frame import PAIR, Frame
 
@@ -67,14 +68,9 @@ class RingFabric:
 
 
 def _cylindrical(vectors: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """``vectors`` (M, 3) in (r, theta, z) components at the points ``at`` (M, 3)."""
-    rho = np.hypot(at[:, 0], at[:, 1])
-    safe = np.where(rho > 0, rho, 1.0)
-    c, s = at[:, 0] / safe, at[:, 1] / safe
-    c = np.where(rho > 0, c, 1.0)
-    s = np.where(rho > 0, s, 0.0)
-    return np.stack([c * vectors[:, 0] + s * vectors[:, 1],
-                     -s * vectors[:, 0] + c * vectors[:, 1], vectors[:, 2]], axis=1)
+    """``vectors`` (M, 3) in (r, theta, z) components at the points ``at`` (M, 3), about the
+    z axis (:func:`~grainflow.analysis.cg.fields.radial_basis`)."""
+    return np.einsum("mij,mj->mi", radial_basis(at, 3), vectors)
 
 
 def ring_fabric_3d(frames: Iterable[Frame], target_radius: float, mu: float, *,
@@ -110,10 +106,9 @@ def ring_fabric_3d(frames: Iterable[Frame], target_radius: float, mu: float, *,
         inside = is_grain & (x[:, 2] > 0) & (x[:, 2] < layer) & (rho < target_radius)
         grains_in += np.bincount((rho[inside] // dr).astype(int), minlength=n_r)[:n_r]
         c = frame.contacts
-        index = {int(i): k for k, i in enumerate(frame.id)}
         pair = np.asarray(c.kind) == PAIR
-        ii = np.array([index[int(i)] for i in np.asarray(c.i)[pair]], dtype=np.int64)
-        jj = np.array([index[int(j)] for j in np.asarray(c.j)[pair]], dtype=np.int64)
+        ii = rows_of(frame, np.asarray(c.i)[pair])
+        jj = rows_of(frame, np.asarray(c.j)[pair])
         both = is_grain[ii] & is_grain[jj]
         ii = ii[both]
         b = np.asarray(c.branch, dtype=float)[pair][both]
