@@ -156,6 +156,19 @@ def test_geometry_builds_2d_and_3d() -> None:
     assert np.all(rho + sim3.state.radius <= 4.0 + 1e-12) and sim3.state.x[:, 2].min() > 0
 
 
+def test_default_skin_of_2d_3d_and_given() -> None:
+    """A 2D hopper of soft disks lists pairs within SKIN_2D mean radii (its rebuilds, not its
+    pairs, cost the time); 3D keeps the engine's 0.2; a given skin is used as given."""
+    from grainflow.scenarios.hopper import SKIN_2D
+
+    sim2 = build_hopper(HopperSection(n=100, width=12.0, orifice_width=4.0), 2)
+    assert sim2.neighbors.skin == pytest.approx(SKIN_2D * sim2.state.radius.mean())
+    sim3 = build_hopper(HopperSection(n=200, width=8.0, orifice_width=3.0), 3)
+    assert sim3.neighbors.skin == pytest.approx(0.2 * sim3.state.radius.mean())
+    given = build_hopper(HopperSection(n=100, width=12.0, orifice_width=4.0), 2, skin=0.05)
+    assert given.neighbors.skin == 0.05
+
+
 def test_dt_from_stiffest_contact() -> None:
     sec = HopperSection(**{**TINY, "E_w": 1.0e4})
     sim = build_hopper(sec, 2)
