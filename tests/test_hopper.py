@@ -417,15 +417,17 @@ def test_authors_study_plan_builds_valid_sweeps() -> None:
                     assert hopper["mu_limit"] == pytest.approx(MU_INCLINED)
                 if name in PROBES:
                     assert hopper["lam"] == 0.0
-                if name == REPLICAS:  # the q2d lambda sweep again, with other seeds
-                    assert hopper["lam"] in plan.lambdas_2d
+                if name == REPLICAS:  # the q2d lambda sweep (or its limits), other seeds
+                    assert hopper["lam"] in (plan.replicate_lambdas or plan.lambdas_2d)
                     assert hopper["orifice_width"] in (plan.replicate_widths or plan.widths_2d)
                     assert config["run"]["seed"] in plan.replicate_seeds
                     assert config["run"]["seed"] != 0
         if plan.replicate_seeds:
             lams = {p.config(specs[REPLICAS].base)["hopper"]["lam"]
                     for p in specs[REPLICAS].points()}
-            assert lams == set(plan.lambdas_2d)
+            assert lams == set(plan.replicate_lambdas or plan.lambdas_2d)
+    assert set(AUTHORS_REDUCED.replicate_lambdas) == {0.0, math.inf}
+    assert AUTHORS_FULL.replicate_lambdas is None  # the whole sweep, each realization's lambda_c
     widths = [3.0, 4.6, 6.2, 7.8, 9.4]
     q = [0.5 * (w - 1.0) ** 1.8 for w in widths]
     series = Series(w=widths, Q=q, Q_err=[0.01 * x for x in q])

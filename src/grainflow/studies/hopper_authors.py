@@ -62,6 +62,9 @@ class AuthorsPlan:
     replicate_seeds: tuple[int, ...] = ()
     #: Widths of the replicate sweeps (None: widths_2d).
     replicate_widths: tuple[float, ...] | None = None
+    #: lambdas of the replicate sweeps (None: lambdas_2d; the two limits give the spread of
+    #: the limits' betas, not each realization's lambda_c).
+    replicate_lambdas: tuple[float, ...] | None = None
     reductions: tuple[str, ...] = field(default=())
 
 
@@ -85,21 +88,22 @@ AUTHORS_REDUCED = AuthorsPlan(
     duration_2d=150.0, widths_3d=(4.0, 5.0, 6.0, 7.0, 8.0, 9.0),
     lambdas_3d=(0.0, math.inf), duration_3d=100.0,
     n_3d=6400, hard_E_sp=(1e4, 1e5), widths_hard=(3.0, 5.4, 7.8, 10.2), duration_hard=100.0,
-    theta_w=(60.0, 30.0, 20.0), duration_theta=150.0, widths_theta=(3.0, 5.4, 7.8, 10.2),
+    theta_w=(60.0, 30.0), duration_theta=150.0, widths_theta=(3.0, 5.4, 7.8, 10.2),
     lambdas_theta=(0.0, 1e-3, 5e-3, 0.02, 0.1, math.inf),
     widths_probe=(3.0, 4.6, 6.2, 7.8, 9.4, 10.6),
-    probes=("friction_sequential", "friction_n3200"), replicate_seeds=(1,),
+    probes=("friction_n3200",), replicate_seeds=(1,), replicate_lambdas=(0.0, math.inf),
     reductions=("6 widths of the authors' 20 in 2D (3.0-10.6), 6 in 3D (4-9; full: 4-10)",
-                "7 lambda in 2D (full: 12), the two limits in 3D (full: 6 lambda); the inclined hoppers (theta_w = 60, 30, 20) with "
-                "4 widths and 6 lambda (full: 5 widths, 8 lambda)",
+                "7 lambda in 2D (full: 12), the two limits in 3D (full: 6 lambda); the inclined hoppers at "
+                "theta_w = 60 and 30 with 4 widths and 6 lambda (full: also 20, with 5 widths "
+                "and 8 lambda)",
                 "150 t0 of flow in 2D (the authors' runs: ~153 t0), 100 t0 in 3D and for the "
                 "hard-particle limit (full: 300, 200, 150)",
                 "hard-particle limit with 4 widths (full: 10)",
-                "two friction-limit probes (the sequential start, N = 3200); full: also the "
+                "one friction-limit probe (N = 3200); full: also the sequential start, the "
                 "authors' dt, E_sp = 1000, full friction, constant stiffness, and 3D at a "
                 "tenth of mu and with the 3D branch's stiffness",
-                "one replicate (seed 1) of the 2D lambda sweep (full: three, over 10 "
-                "widths)"))
+                "one replicate realization (seed 1) of the 2D limits, lambda = 0 and infinity "
+                "(full: three of the whole 2D lambda sweep, over 10 widths)"))
 
 #: E_sp of the authors' 3D branch (spK = 100), converted as its masses (pi r^2) and the 2D
 #: code's g = 0.05 give (hopper_units.AUTHORS_3D_UNITS): 926.
@@ -208,7 +212,7 @@ def sweep_specs(plan: AuthorsPlan) -> dict[str, Any]:
     if plan.replicate_seeds:
         raw[REPLICAS] = {"base": _base(2, plan, plan.duration_2d), "overrides": {
             "hopper.orifice_width": list(plan.replicate_widths or plan.widths_2d),
-            "hopper.lam": list(plan.lambdas_2d)},
+            "hopper.lam": list(plan.replicate_lambdas or plan.lambdas_2d)},
             "seeds": list(plan.replicate_seeds)}
     analyses = ["grainflow.studies.hopper_results:flow_summary"]
     return {name: parse_sweep({"name": name, "mode": "grid", "analyses": analyses, **spec})
