@@ -557,3 +557,42 @@ def test_visiting_only_particles_near_walls_changes_nothing(dim: int, monkeypatc
     assert near.step == every.step
     for name in every.state.arrays:
         assert np.array_equal(near.state.arrays[name], every.state.arrays[name]), name
+
+
+def _record_over_every_particle(wall: WallForce, sim: Simulation) -> np.ndarray:
+    """Slots (``i * n_walls + w``) of every particle-wall force now, visiting every particle."""
+    st = sim.state
+    out = np.zeros((st.n * wall.n_walls, 6))
+    wall._run(sim.context, sim.time, False, np.zeros((st.n, 3)), np.zeros((st.n, 3)), out,
+              np.arange(st.n, dtype=np.int64))
+    return out
+
+
+def test_the_contact_record_visits_what_touches_a_wall_and_misses_nothing():
+    """contacts() visits only the grains within reach + skin of a wall (or holding a wall
+    history), yet lists every force the walls exert: the same rows as a record over every
+    grain, for a frictional pile in a can (wall histories) and a soft pile over an orifice."""
+    rng = np.random.default_rng(3)
+    xs = [(x, y, z) for z in np.arange(0.3, 3.6, 0.32) for x in np.arange(-0.6, 0.7, 0.32)
+          for y in np.arange(-0.6, 0.7, 0.32) if x * x + y * y < 0.7**2]
+    st = make_state(3, np.asarray(xs) + rng.uniform(-0.01, 0.01, (len(xs), 3)), 0.14)
+    law = GranularLaw(2)
+    law.set_all(kn=2e3, gamma_n=20.0, kt=1e3, mu=0.5)
+    can = Simulation(st, 2e-4, law)
+    can.add_force(Gravity([0.3, 0.0, -1.0]))
+    plate = Simulation(make_state(3, np.asarray(xs) + rng.uniform(-0.01, 0.01, (len(xs), 3)),
+                                  0.14), 2e-4, law)
+    plate.add_force(Gravity([0.0, 0.0, -1.0]))
+    for sim, walls in ((can, [TUBE]), (plate, [PlateWithHole((0, 0, 0), (0, 0, 1), 0.3),
+                                              Cylinder((0, 0, 0), (0, 0, 1), 1.0)])):
+        wall = sim.add_force(WallForce(walls, law, 1))
+        sim.run(20000)
+        (rows,) = wall.contacts(sim.context)
+        out = _record_over_every_particle(wall, sim)
+        slots = np.nonzero(np.any(out[:, :3] != 0.0, axis=1))[0]
+        assert len(slots) >= 10
+        assert rows.i.tolist() == (slots // wall.n_walls).tolist()
+        assert rows.j.tolist() == (slots % wall.n_walls).tolist()
+        assert np.array_equal(rows.force, out[slots, :3])
+        assert np.array_equal(rows.branch, out[slots, 3:])
+        assert wall._touching(sim.context, sim.time).size < sim.state.n  # not every grain

@@ -337,6 +337,17 @@ class WallForce(Force):
         self._visit_key = key
         return self._visit
 
+    def _touching(self, ctx: ForceContext, time: float) -> np.ndarray:
+        """Indices of the particles within ``reach + skin`` of a wall at ``time`` (every
+        particle a wall exerts a force on then, whatever the list), and of those holding a
+        wall history: what a record of the contacts needs to visit."""
+        st = ctx.state
+        gap = wall_gaps(self.kinds, self.params, self._shift(time), st.x, st.radius)
+        near = gap < self.law.reach() + ctx.neighbors.skin
+        if st.n and self.law.history_size:
+            near |= np.any(self._history(st).reshape(st.n, -1) != 0.0, axis=1)
+        return np.nonzero(near)[0].astype(np.int64)
+
     def _allowance(self, gap: np.ndarray, near: np.ndarray, x: np.ndarray,
                    nl: Any) -> np.ndarray:
         """How far each particle may move since the list's build before it could reach a
@@ -350,10 +361,12 @@ class WallForce(Force):
         return allowance
 
     def _run(self, ctx: ForceContext, time: float, update: bool, force: np.ndarray,
-             torque: np.ndarray, out: np.ndarray | None) -> None:
-        st = ctx.state
-        visit = np.arange(st.n, dtype=np.int64) if out is not None else self._near(ctx)
-        a = self._arguments(ctx, force, torque, out, visit)
+             torque: np.ndarray, out: np.ndarray | None,
+             visit: np.ndarray | None = None) -> None:
+        """The wall kernel over ``visit`` (default: :meth:`_near`), recording into ``out``
+        if given."""
+        a = self._arguments(ctx, force, torque, out,
+                            self._near(ctx) if visit is None else visit)
         for_threads_now(self._kernel)(*a[:5], self._shift(time), *a[5:15], ctx.dt, update,
                                       a[15], a[16], out is not None, a[17], a[18])
 
@@ -388,8 +401,10 @@ class WallForce(Force):
         torque arrays and every history are left as they are."""
         st = ctx.state
         out = np.zeros((st.n * self.n_walls, 6))
-        self._run(ctx, ctx.time, False, np.zeros((st.n, 3)), np.zeros((st.n, 3)), out)
-        slots = np.nonzero(np.any(out[:, :3] != 0.0, axis=1))[0]
+        visit = self._touching(ctx, ctx.time)
+        self._run(ctx, ctx.time, False, np.zeros((st.n, 3)), np.zeros((st.n, 3)), out, visit)
+        slots = (visit[:, None] * self.n_walls + np.arange(self.n_walls)).ravel()
+        slots = slots[np.any(out[slots, :3] != 0.0, axis=1)]
         return [ContactRows(slots // self.n_walls, slots % self.n_walls, WALL, out[slots, :3],
                             out[slots, 3:])]
 
