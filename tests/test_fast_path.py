@@ -114,9 +114,7 @@ def test_compiled_steps_are_bitwise_python_steps(case: str) -> None:
     compiled = _run(build, steps, True)
     assert python._fast_path.steps_done == 0
     assert compiled._fast_path.steps_done > steps // 2
-    assert compiled.rebuilds > 2
-    # a step that needed a new list is finished compiled once Python has rebuilt it
-    assert compiled._fast_path.resumes >= 1
+    assert compiled.rebuilds > 2  # steps that needed a new list went back to Python
     _assert_same(python, compiled)
     if case == "two laws and a moving wall":
         from grainflow.frame import WALL

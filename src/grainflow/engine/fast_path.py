@@ -21,10 +21,8 @@ order on the same arrays, so a run is bitwise the same either way (tests/test_fa
 The loop stops early, returning control to Python, after the first half of a step after
 which the list may miss a pair (:mod:`grainflow.kernels.list_check`: some particle has moved
 more than half the skin, or under the relative check some pair the skin against each other):
-Python rebuilds the list and calls the loop again with ``resume``, which finishes that step
-(its forces and second half, compiled as every other) and goes on; only the rebuild runs in
-Python. An operation without a step call (or more than :data:`SLOTS` of them) means the
-simulation steps in Python, as before.
+that step is finished in Python, where the list is rebuilt. An operation without a step call (or more than :data:`SLOTS` of them) means
+the simulation steps in Python, as before.
 """
 
 from __future__ import annotations
@@ -99,12 +97,9 @@ def step_call(template: Any, name: str, args: tuple, *, serial_twins: bool = Tru
     return StepCall(adapter, args)
 
 
-def _run_steps(k, resume, time, dt, check_args, pre_args, post_args,
+def _run_steps(k, time, dt, check_args, pre_args, post_args,
                joined_args, a0, a1, a2, a3, a4, a5, a6, a7):
     """Up to ``k`` steps from clock time ``time``: ``(steps done, new time, pending)``.
-
-    ``resume``: the first step's first half is already done (a step left pending by the
-    previous call, whose list the caller has rebuilt since); it is finished here and counted.
 
     ``pending``: the last step's first half is done but the list may miss a pair
     (``STALE(check_args)``); the caller finishes that step (not counted in
@@ -117,10 +112,9 @@ def _run_steps(k, resume, time, dt, check_args, pre_args, post_args,
     """
     if k == 0:
         return 0, time, False
-    if not resume:
-        PRE(pre_args, time, dt)  # noqa: F821 (bound names)
+    PRE(pre_args, time, dt)  # noqa: F821 (bound names)
     for s in range(k):
-        if (s > 0 or not resume) and STALE(check_args):  # noqa: F821
+        if STALE(check_args):  # noqa: F821
             return s, time, True
         last = s == k - 1
         OP0(a0, time, dt, last)  # noqa: F821
@@ -151,8 +145,6 @@ class FastPath:
         self.steps_done = 0
         #: Times the step calls were collected (for tests and profiles).
         self.collections = 0
-        #: Steps left pending for a rebuild and finished compiled (for tests and profiles).
-        self.resumes = 0
 
     def forget(self) -> None:
         """Drop the step calls: something an operation reads may have been replaced (a run
@@ -192,10 +184,9 @@ class FastPath:
         return halves[0], halves[1], halves[2], ops
 
     def run(self, sim: Any, k: int,
-            calls: tuple[StepCall, StepCall, StepCall, list[StepCall]], *,
-            resume: bool = False) -> tuple[int, float, bool]:
-        """Up to ``k`` steps (see :func:`_run_steps`; ``resume``: finish the pending step
-        first, after the caller rebuilt the list); the caller advances the clock."""
+            calls: tuple[StepCall, StepCall, StepCall, list[StepCall]]
+            ) -> tuple[int, float, bool]:
+        """Up to ``k`` steps (see :func:`_run_steps`); the caller advances the clock."""
         pre, post, joined, ops = calls
         ops = ops + [StepCall(nothing, ())] * (SLOTS - len(ops))
         nl = sim.neighbors
@@ -208,10 +199,9 @@ class FastPath:
                         "STALE": stale}
             bindings.update({f"OP{i}": op.adapter for i, op in enumerate(ops)})
             loop = self._loops[key] = specialize(_run_steps, "run_steps", bindings)
-        done, time, pending = loop(k, resume, sim.clock.time, sim.clock.dt,
+        done, time, pending = loop(k, sim.clock.time, sim.clock.dt,
                                    nl.check_args(sim.state, sim.geometry),
                                    pre.args, post.args, joined.args,
                                    *(op.args for op in ops))
         self.steps_done += done
-        self.resumes += resume
         return done, time, pending

@@ -463,17 +463,6 @@ class Simulation:
                     clock.step += done
                     self.particle_steps += self.state.n * done
                     self.forces_current = True
-                    while pending:
-                        # the list missed a pair: rebuild it here, finish the step compiled
-                        self._refresh_list()
-                        calls = fast.calls(self)
-                        if calls is None:
-                            break
-                        more, clock.time, pending = fast.run(self, quiet - done, calls,
-                                                             resume=True)
-                        done += more
-                        clock.step += more
-                        self.particle_steps += self.state.n * more
                 else:
                     integ.pre_force(ctx)
                     pending = True
