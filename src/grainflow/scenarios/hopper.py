@@ -343,7 +343,7 @@ def _defaults(section: HopperSection, dim: int) -> tuple[int, float]:
 #: Verlet skin of a 2D hopper of soft disks, in mean radii (the engine's default is 0.2). The
 #: grains leaving the orifice cross half a skin of 0.1 sigma_avg every ten or so steps, and
 #: around each rebuild a 1,600-disk step costs several steps' worth of Python; at 0.8 the
-#: list is rebuilt 2.7-3.5 times less often and a run takes 1.18-1.33 times less time (the
+#: list is rebuilt 2.7-3.5 times less often and a run takes 1.18-1.37 times less time (the
 #: study's hopper at lambda = 0, 0.05 and infinity, w = 3.0-10.6; docs/hopper_study.md, "Cost
 #: of the second pass"). In 3D the pair loop dominates and a larger skin gains nothing.
 SKIN_2D = 0.8
