@@ -327,26 +327,28 @@ class WallForce(Force):
         if np.any(self.velocity):
             self._visit = np.arange(st.n, dtype=np.int64)
         else:
-            gap = wall_gaps(self.kinds, self.params, self._shift(ctx.time), st.x, st.radius)
-            near = gap < self.law.reach() + nl.skin
-            if st.n and self.law.history_size:
-                near |= np.any(self._history(st).reshape(st.n, -1) != 0.0, axis=1)
+            gap, near = self._within_skin(ctx, ctx.time)
             self._visit = np.nonzero(near)[0].astype(np.int64)
             if nl.relative and nl.is_current_for(st):
                 nl.limit_motion(self.name, self._allowance(gap, near, st.x, nl))
         self._visit_key = key
         return self._visit
 
-    def _touching(self, ctx: ForceContext, time: float) -> np.ndarray:
-        """Indices of the particles within ``reach + skin`` of a wall at ``time`` (every
-        particle a wall exerts a force on then, whatever the list), and of those holding a
-        wall history: what a record of the contacts needs to visit."""
+    def _within_skin(self, ctx: ForceContext, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Each particle's gap to the nearest wall at ``time``, and whether it is within
+        ``reach + skin`` of one or holds a wall history."""
         st = ctx.state
         gap = wall_gaps(self.kinds, self.params, self._shift(time), st.x, st.radius)
         near = gap < self.law.reach() + ctx.neighbors.skin
         if st.n and self.law.history_size:
             near |= np.any(self._history(st).reshape(st.n, -1) != 0.0, axis=1)
-        return np.nonzero(near)[0].astype(np.int64)
+        return gap, near
+
+    def _touching(self, ctx: ForceContext, time: float) -> np.ndarray:
+        """Indices of the particles :meth:`_within_skin` at ``time``, whatever the list (a
+        moving wall included): every particle a wall exerts a force on then, which is what
+        a record of the contacts needs to visit."""
+        return np.nonzero(self._within_skin(ctx, time)[1])[0].astype(np.int64)
 
     def _allowance(self, gap: np.ndarray, near: np.ndarray, x: np.ndarray,
                    nl: Any) -> np.ndarray:
