@@ -54,6 +54,17 @@ def sleep_runner(config: dict[str, Any], rundir: Path) -> None:
     ))
 
 
+def threads_runner(config: dict[str, Any], rundir: Path) -> None:
+    """Like sleep_runner, and appends to test.threads_log the worker's thread caps: numba's
+    (``NUMBA_NUM_THREADS`` as numba read it) and ``OMP_NUM_THREADS``."""
+    import numba
+
+    with open(config["test"]["threads_log"], "a") as log:
+        log.write(json.dumps({"numba": numba.config.NUMBA_NUM_THREADS,
+                              "omp": os.environ.get("OMP_NUM_THREADS")}) + "\n")
+    sleep_runner(config, rundir)
+
+
 def gated_runner(config: dict[str, Any], rundir: Path) -> None:
     """Like sleep_runner, but a point with p.a >= 2 first waits (up to 60 s) for the file
     test.gate to exist: the points with p.a = 1 finish, and the sweep cannot finish before

@@ -515,6 +515,27 @@ def test_example_sweep_file_is_valid(tmp_path):
     assert len(spec.points()) == 6 and spec.runner == "grainflow.runner:run_config"
 
 
+def test_worker_threads_cap_a_runs_threads_on_a_local_cluster(tmp_path):
+    """Local workers run each point with numba's thread cap at ``worker_threads`` (1 by
+    default: every run on one thread), numpy's libraries at one thread either way; a cap
+    below one is refused before any worker starts."""
+    for threads in (1, 2):
+        log = tmp_path / f"threads{threads}.log"
+        spec = make_spec(tmp_path, runner="threads_runner", test={"threads_log": str(log)},
+                         replicates=1)
+        extra = {} if threads == 1 else {"worker_threads": threads}
+        result = run_sweep(spec, tmp_path / f"sweep{threads}", n_workers=1, progress="none",
+                           console=quiet(), **extra)
+        assert result.ok
+        seen = [json.loads(line) for line in log.read_text().splitlines()]
+        assert len(seen) == 4
+        assert all(s == {"numba": threads, "omp": "1"} for s in seen), seen
+    with pytest.raises(ValueError, match="worker_threads"):
+        run_sweep(make_spec(tmp_path), tmp_path / "sweep0", n_workers=1, worker_threads=0,
+                  console=quiet())
+    assert not (tmp_path / "sweep0").exists()
+
+
 SCRIPT_IMPORTING_NUMBA = '''
 import os, sys
 import numba  # at the top, as a user's script does: spawned workers import it again

@@ -36,7 +36,8 @@ def done_points(sweepdir: Path) -> SweepPoints:
 
 
 def run_sweeps(specs: dict[str, Any], out: Path, *, scheduler: str | None = None,
-               n_workers: int | None = None, progress: str = "auto") -> dict[str, SweepPoints]:
+               n_workers: int | None = None, progress: str = "auto",
+               worker_threads: int = 1) -> dict[str, SweepPoints]:
     """Run (or continue) each sweep into ``out/NAME`` and return its done points by name;
     finished points are never recomputed (:func:`grainflow.sweep.run_sweep`).
 
@@ -45,7 +46,8 @@ def run_sweeps(specs: dict[str, Any], out: Path, *, scheduler: str | None = None
     ``specs``: a later sweep's points fill the workers an earlier sweep's last points leave
     idle. ``progress`` is the display (``"auto"``: a bar with the time left on a terminal, a
     plain line every 30 s otherwise; ``"rich"``, ``"plain"``, ``"none"``), counting the
-    points of every sweep."""
+    points of every sweep. ``worker_threads``: the most threads a run may take on a local
+    worker (:func:`grainflow.sweep.run_sweeps_together`)."""
     from grainflow.sweep import run_sweeps_together
 
     out.mkdir(parents=True, exist_ok=True)
@@ -53,5 +55,6 @@ def run_sweeps(specs: dict[str, Any], out: Path, *, scheduler: str | None = None
         names = ", ".join(f"'{name}'" for name in specs)
         print(f"study: sweeps {names} into {out}, run together", flush=True)
     run_sweeps_together([(spec, out / name) for name, spec in specs.items()],
-                        scheduler=scheduler, n_workers=n_workers, progress=progress)
+                        scheduler=scheduler, n_workers=n_workers, progress=progress,
+                        worker_threads=worker_threads)
     return {name: done_points(out / name) for name in specs}

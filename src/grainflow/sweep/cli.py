@@ -97,6 +97,13 @@ def sweep_command(
         Optional[int],
         typer.Option("--workers", "-n", min=1, help="Local cluster size (default: one worker per core)."),
     ] = None,
+    worker_threads: Annotated[
+        int,
+        typer.Option("--worker-threads", min=1,
+                     help="Most threads one run may use on a local worker (default 1: every "
+                          "run on one thread). More lets runs with threads = 'auto' take "
+                          "the cores other workers leave idle, as the sweep's last runs do."),
+    ] = 1,
     progress: Annotated[
         str, typer.Option(help="Progress display: auto, rich, plain or none.")
     ] = "auto",
@@ -122,7 +129,7 @@ def sweep_command(
             result = run_sweep(
                 spec, sweepdir, scheduler=scheduler, n_workers=workers,
                 progress=progress, progress_interval=progress_interval,
-                rebuild_catalog=rebuild_catalog,
+                rebuild_catalog=rebuild_catalog, worker_threads=worker_threads,
             )
         except CatalogError as exc:  # name this sweep file in the command to run
             raise CatalogError(str(exc).replace("SWEEP.toml", str(sweep_file))) from None

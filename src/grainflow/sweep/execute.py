@@ -66,7 +66,9 @@ from grainflow.sweep.spec import (
 )
 
 #: Environment of LocalCluster workers: one compute thread each (set before each worker
-#: process is spawned: :func:`worker_environment`).
+#: process is spawned: :func:`worker_environment`). ``NUMBA_NUM_THREADS`` is the cap of
+#: a run's thread count; ``worker_threads`` of :func:`run_sweeps_together` raises it, the
+#: others (numpy's linear algebra in the analyses) stay at one.
 WORKER_ENV = {
     "NUMBA_NUM_THREADS": "1",
     "OMP_NUM_THREADS": "1",
@@ -352,6 +354,7 @@ def run_sweep(
     progress_interval: float = 30.0,
     console: Console | None = None,
     rebuild_catalog: bool = False,
+    worker_threads: int = 1,
 ) -> SweepResult:
     """Run every point of ``spec`` not yet done in ``sweepdir`` and record it in the catalog.
 
@@ -366,6 +369,12 @@ def run_sweep(
         ``"none"`` (no status lines; messages about failed points still print).
     rebuild_catalog : if the catalog is damaged, move it aside and start a new one; the
         points whose runs finished are not run again (only their analyses).
+    worker_threads : the most threads one run may use on a LocalCluster worker
+        (``NUMBA_NUM_THREADS``; ignored with ``scheduler``). 1 (default) pins every run to
+        one thread. More lets a run whose config says ``threads = "auto"`` take the cores
+        other workers leave idle, as the last runs of a sweep do
+        (:mod:`grainflow.engine.threads` measures, and stays on one thread while the
+        other workers are busy).
 
     Before anything starts, every point's configuration is validated (grainflow's runner),
     relative file paths are made absolute (against the file that wrote them), and the sweep
@@ -378,7 +387,8 @@ def run_sweep(
     """
     return run_sweeps_together([(spec, sweepdir)], scheduler=scheduler, n_workers=n_workers,
                                progress=progress, progress_interval=progress_interval,
-                               console=console, rebuild_catalog=rebuild_catalog)[0]
+                               console=console, rebuild_catalog=rebuild_catalog,
+                               worker_threads=worker_threads)[0]
 
 
 def run_sweeps_together(
@@ -390,6 +400,7 @@ def run_sweeps_together(
     progress_interval: float = 30.0,
     console: Console | None = None,
     rebuild_catalog: bool = False,
+    worker_threads: int = 1,
 ) -> list[SweepResult]:
     """Run several sweeps, each ``(spec, sweepdir)``, on one set of workers at once.
 
@@ -405,6 +416,7 @@ def run_sweeps_together(
     """
     if progress not in PROGRESS_MODES:
         raise ValueError(f"progress must be one of {PROGRESS_MODES}, not {progress!r}")
+    worker_env(worker_threads)  # a bad count is refused before anything starts
     console = console or Console(highlight=False)
     chosen = [(spec, Path(sweepdir).resolve()) for spec, sweepdir in sweeps]
     dirs = [sweepdir for _, sweepdir in chosen]
@@ -427,7 +439,8 @@ def run_sweeps_together(
         if any(o.tasks for o in opened):
             total = sum(len(o.ids) for o in opened)
             reporter = _make_reporter(progress, console, total, progress_interval)
-            with _sigterm_as_interrupt(), open_client(scheduler, n_workers, console) as client:
+            with _sigterm_as_interrupt(), open_client(scheduler, n_workers, console,
+                                                              worker_threads) as client:
                 _drive(client, opened, reporter)
         for o in opened:
             with _catalog_errors(o.catalog):
@@ -489,9 +502,17 @@ def _tasks(spec: SweepSpec, points: list[Point], sweepdir: Path) -> list[PointTa
     ]
 
 
+def worker_env(threads: int = 1) -> dict[str, str]:
+    """:data:`WORKER_ENV` with a run's thread cap ``NUMBA_NUM_THREADS = threads``."""
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"worker_threads: {threads!r} is not valid; expected a thread count "
+                         ">= 1 (1 pins every run to one thread)")
+    return {**WORKER_ENV, "NUMBA_NUM_THREADS": str(threads)}
+
+
 @contextmanager
-def worker_environment() -> Iterator[None]:
-    """:data:`WORKER_ENV` in the environment each local worker process is spawned with.
+def worker_environment(threads: int = 1) -> Iterator[None]:
+    """:func:`worker_env` in the environment each local worker process is spawned with.
 
     A LocalCluster's ``env`` reaches a worker only after the new process has imported the
     caller's main module (multiprocessing's spawn imports it again). A script that imports
@@ -501,9 +522,10 @@ def worker_environment() -> Iterator[None]:
     launched"): every point failed. dask's pre-spawn environment is put into this process's
     environment before each spawn (a restarted worker's too) and into the worker's own;
     this process's own values come back when the block ends."""
-    saved = {key: os.environ.get(key) for key in WORKER_ENV}
+    env = worker_env(threads)
+    saved = {key: os.environ.get(key) for key in env}
     pre_spawn = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}),
-                 **WORKER_ENV}
+                 **env}
     try:
         with dask.config.set({"distributed.nanny.pre-spawn-environ": pre_spawn}):
             yield
@@ -517,9 +539,10 @@ def worker_environment() -> Iterator[None]:
 
 @contextmanager
 def open_client(
-    scheduler: str | None, n_workers: int | None, console: Console
+    scheduler: str | None, n_workers: int | None, console: Console, worker_threads: int = 1
 ) -> Iterator[Client]:
-    """A client on ``scheduler``, or on a fresh LocalCluster closed on exit."""
+    """A client on ``scheduler``, or on a fresh LocalCluster closed on exit whose workers
+    run one task each, on up to ``worker_threads`` threads (:func:`worker_env`)."""
     if scheduler:
         try:
             client = Client(scheduler, timeout="20s")
@@ -530,14 +553,19 @@ def open_client(
             yield client
         return
     n_workers = n_workers or os.cpu_count() or 1
-    with worker_environment(), LocalCluster(
+    with worker_environment(worker_threads), LocalCluster(
         n_workers=n_workers,
         threads_per_worker=1,
         processes=True,
         host="127.0.0.1",
         dashboard_address=None,
     ) as cluster, Client(cluster) as client:
-        console.out(f"started a local cluster: {n_workers} single-threaded workers")
+        if worker_threads == 1:
+            console.out(f"started a local cluster: {n_workers} single-threaded workers")
+        else:
+            console.out(f"started a local cluster: {n_workers} workers, one run each on up "
+                        f"to {worker_threads} threads (a run with threads = 'auto' takes "
+                        "cores the others leave idle)")
         yield client
 
 
