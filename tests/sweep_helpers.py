@@ -56,12 +56,14 @@ def sleep_runner(config: dict[str, Any], rundir: Path) -> None:
 
 def threads_runner(config: dict[str, Any], rundir: Path) -> None:
     """Like sleep_runner, and appends to test.threads_log the worker's thread caps: numba's
-    (``NUMBA_NUM_THREADS`` as numba read it) and ``OMP_NUM_THREADS``."""
+    (``NUMBA_NUM_THREADS`` as numba read it) and ``OMP_NUM_THREADS``, and its
+    ``MALLOC_TRIM_THRESHOLD_``."""
     import numba
 
     with open(config["test"]["threads_log"], "a") as log:
         log.write(json.dumps({"numba": numba.config.NUMBA_NUM_THREADS,
-                              "omp": os.environ.get("OMP_NUM_THREADS")}) + "\n")
+                              "omp": os.environ.get("OMP_NUM_THREADS"),
+                              "trim": os.environ.get("MALLOC_TRIM_THRESHOLD_")}) + "\n")
     sleep_runner(config, rundir)
 
 

@@ -515,10 +515,16 @@ def test_example_sweep_file_is_valid(tmp_path):
     assert len(spec.points()) == 6 and spec.runner == "grainflow.runner:run_config"
 
 
-def test_worker_threads_cap_a_runs_threads_on_a_local_cluster(tmp_path):
+def test_worker_threads_cap_a_runs_threads_on_a_local_cluster(tmp_path, monkeypatch):
     """Local workers run each point with numba's thread cap at ``worker_threads`` (1 by
-    default: every run on one thread), numpy's libraries at one thread either way; a cap
-    below one is refused before any worker starts."""
+    default: every run on one thread), numpy's libraries at one thread either way, and
+    without dask's 64 KB ``MALLOC_TRIM_THRESHOLD_`` (even where an earlier dask nanny of
+    this process left it in the environment); a cap below one is refused before any worker
+    starts."""
+    import dask
+
+    dask_trim = dask.config.get("distributed.nanny.pre-spawn-environ")["MALLOC_TRIM_THRESHOLD_"]
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", str(dask_trim))  # as a nanny leaves it
     for threads in (1, 2):
         log = tmp_path / f"threads{threads}.log"
         spec = make_spec(tmp_path, runner="threads_runner", test={"threads_log": str(log)},
@@ -529,7 +535,8 @@ def test_worker_threads_cap_a_runs_threads_on_a_local_cluster(tmp_path):
         assert result.ok
         seen = [json.loads(line) for line in log.read_text().splitlines()]
         assert len(seen) == 4
-        assert all(s == {"numba": threads, "omp": "1"} for s in seen), seen
+        assert all(s == {"numba": threads, "omp": "1", "trim": None} for s in seen), seen
+        assert os.environ["MALLOC_TRIM_THRESHOLD_"] == str(dask_trim)  # the caller's, back
     with pytest.raises(ValueError, match="worker_threads"):
         run_sweep(make_spec(tmp_path), tmp_path / "sweep0", n_workers=1, worker_threads=0,
                   console=quiet())

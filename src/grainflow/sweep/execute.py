@@ -75,6 +75,14 @@ WORKER_ENV = {
     "MKL_NUM_THREADS": "1",
     "OPENBLAS_NUM_THREADS": "1",
 }
+#: dask's default pre-spawn environment sets this glibc variable to 64 KB so that workers
+#: give freed memory back to the system at once. It also fixes glibc's thresholds, which
+#: otherwise grow to fit a program's allocations: a run's few-hundred-KB temporaries (list
+#: builds, per-step arrays) were then returned and faulted in again at every use. On the
+#: stream study's run, 40 times the page faults (211 against 5 a step) and 8-15 % of its
+#: speed (docs/sweeps.md). Local workers start without it (a value of the caller's own is
+#: kept).
+MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 POINT_FILE = "sweep_point.json"  # written into a run directory once its runner succeeded
 LOCK_FILE = ".sweep.lock"
 SWEEP_RECORD = "sweep.toml"
@@ -521,11 +529,16 @@ def worker_environment(threads: int = 1) -> Iterator[None]:
     ("Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
     launched"): every point failed. dask's pre-spawn environment is put into this process's
     environment before each spawn (a restarted worker's too) and into the worker's own;
-    this process's own values come back when the block ends."""
+    this process's own values come back when the block ends. dask's own
+    :data:`MALLOC_TRIM` is left out, also where an earlier dask cluster of this process put
+    it into this process's environment (a nanny does so before it spawns)."""
     env = worker_env(threads)
-    saved = {key: os.environ.get(key) for key in env}
-    pre_spawn = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}),
-                 **env}
+    saved = {key: os.environ.get(key) for key in (*env, MALLOC_TRIM)}
+    dask_default = dask.config.get("distributed.nanny.pre-spawn-environ", default={})
+    pre_spawn = {**{k: v for k, v in dask_default.items() if k != MALLOC_TRIM}, **env}
+    if MALLOC_TRIM in dask_default and os.environ.get(MALLOC_TRIM) == str(
+            dask_default[MALLOC_TRIM]):
+        del os.environ[MALLOC_TRIM]
     try:
         with dask.config.set({"distributed.nanny.pre-spawn-environ": pre_spawn}):
             yield
