@@ -72,10 +72,10 @@ REDUCED = StreamPlan(
     stream={"hopper_diameter": "5 mm", "fill_height": "3 mm", "contact_time": "100 us",
             "open_time": "0.05 s", "stream_depth": "22 cm"},
     duration=0.36, frames_every=500, frames_from=0.15,
+    shell=((500.0, 200.0),), shell_e=0.40,
     reductions=(
         "e in {0.88, 0.40} and F_c in {0, 30, 300, 1000} nN (seed: 5 x ~10 points)",
-        "no shell sweep (the full study's delta = 50 and 200 nm at fixed W = F_c delta; "
-        "docs/streams.md gives the reduced plan's 200 nm run and the others)",
+        "the shell sweep at one thickness, 200 nm (full: 50 and 200 nm)",
         "hopper D_h = 5 mm, H = 3 mm (about 8,400 grains; full: 7.5 mm, 6 mm, 38,000)",
         "the stream is followed to 22 cm as in the seed, but over a window of 0.1 s "
         "(t = 0.26-0.36 s); droplets deeper than 20 cm count, none excluded (seed: the 1000 "
