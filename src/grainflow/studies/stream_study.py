@@ -678,7 +678,8 @@ def reproduce(out_dir: str | Path, *, reduced: bool = True, scheduler: str | Non
     add("clustering / droplet crossover F_c (nN)",
         float(np.exp(np.mean(np.log(crossover)))) if crossover.size else None,
         None, ph.cpu)
-    lines += ["| quantity | seed | ours | within 30 % | run cost (CPU s, whole sweep) |",
+    lines += ["| quantity | seed | ours | within 30 % | run cost (s of run time, whole "
+              "sweep; a lone last run may use two threads) |",
               "|---|---|---|---|---|", *table, ""]
     if brackets:
         lines += ["Crossover from clustering to droplets (geometric mean of the last F_c "

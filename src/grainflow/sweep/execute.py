@@ -80,8 +80,8 @@ WORKER_ENV = {
 #: otherwise grow to fit a program's allocations: a run's few-hundred-KB temporaries (list
 #: builds, per-step arrays) were then returned and faulted in again at every use. On the
 #: stream study's run, 40 times the page faults (211 against 5 a step) and 8-15 % of its
-#: speed (docs/sweeps.md). Local workers start without it (a value of the caller's own is
-#: kept).
+#: speed (docs/sweeps.md). Local workers start without it (a value the caller set, other
+#: than dask's own, is kept).
 MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 POINT_FILE = "sweep_point.json"  # written into a run directory once its runner succeeded
 LOCK_FILE = ".sweep.lock"
